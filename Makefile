@@ -1,0 +1,35 @@
+# Two entry points, each self-sufficient on a fresh machine with Python >= 3.11.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+export JAX_COMPILATION_CACHE_DIR ?= $(abspath $(VENV))/cache/jax
+export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS ?= 0.5
+export MPLBACKEND ?= Agg
+export PYTHONUNBUFFERED ?= 1
+
+.PHONY: demo test lint bench clean venv
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e ".[dev]"
+	@rm -f $(VENV)/.installed-*
+	@touch $(STAMP)
+
+demo: venv
+	$(PY) scripts/demo.py
+
+test: venv
+	$(PY) -m pytest -q --durations=15
+
+lint: venv
+	$(PY) -m ruff check symjax tests scripts
+
+bench: venv
+	$(PY) scripts/bench_symmetry.py
+
+clean:
+	rm -rf $(VENV) .pytest_cache

@@ -1,0 +1,74 @@
+"""Typed exceptions raised by symjax.
+
+Every error a user can provoke with bad input is a :class:`SymjaxError`. The subclasses also
+derive from the matching built-in exception so that ``except ValueError`` style code keeps working.
+Messages say what was wrong and what was expected.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "SymjaxError",
+    "InvalidInputError",
+    "ShapeError",
+    "EmptyInputError",
+    "CameraError",
+    "UnknownNameError",
+    "MissingFileError",
+    "FileFormatError",
+    "DegenerateGeometryError",
+    "ConfigError",
+    "SimulationError",
+]
+
+
+class SymjaxError(Exception):
+    """Base class of every error raised by symjax on bad input or an impossible request."""
+
+
+class InvalidInputError(SymjaxError, ValueError):
+    """A value is outside what the function accepts (NaN, negative size, wrong range...)."""
+
+
+class ShapeError(InvalidInputError):
+    """An array has the wrong shape or rank."""
+
+
+class EmptyInputError(InvalidInputError):
+    """A point cloud, mask or mesh is empty or has too few valid elements."""
+
+
+class CameraError(InvalidInputError):
+    """Invalid camera: bad intrinsics, non-rigid pose, or points behind the camera."""
+
+
+class UnknownNameError(SymjaxError, KeyError):
+    """A name (hand, robot, method, object, format) is not one of the known ones."""
+
+    def __str__(self) -> str:  # KeyError quotes its message; keep it readable.
+        return str(self.args[0]) if self.args else ""
+
+
+class MissingFileError(SymjaxError, FileNotFoundError):
+    """A required file or directory does not exist."""
+
+
+class FileFormatError(SymjaxError, ValueError):
+    """A file exists but is corrupt, truncated, or not in the expected format."""
+
+
+class DegenerateGeometryError(InvalidInputError):
+    """Geometry on which the operation is undefined (collinear or coplanar points, NaN normals)."""
+
+
+class ConfigError(InvalidInputError):
+    """A configuration value is invalid."""
+
+
+class SimulationError(SymjaxError, RuntimeError):
+    """A simulation could not be set up or run."""
+
+
+def unknown_name(kind: str, name: object, valid: "list[str] | tuple[str, ...]") -> UnknownNameError:
+    """Builds an :class:`UnknownNameError` that lists the valid names."""
+    return UnknownNameError(f"unknown {kind} {name!r}; expected one of: {', '.join(sorted(valid))}")
