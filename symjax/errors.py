@@ -69,6 +69,6 @@ class SimulationError(SymjaxError, RuntimeError):
     """A simulation could not be set up or run."""
 
 
-def unknown_name(kind: str, name: object, valid: "list[str] | tuple[str, ...]") -> UnknownNameError:
+def unknown_name(kind: str, name: object, valid: list[str] | tuple[str, ...]) -> UnknownNameError:
     """Builds an :class:`UnknownNameError` that lists the valid names."""
     return UnknownNameError(f"unknown {kind} {name!r}; expected one of: {', '.join(sorted(valid))}")

@@ -143,7 +143,9 @@ class Observation:
         if not isinstance(camera, Camera):
             raise InvalidInputError(f"camera must be a symjax.Camera, got {type(camera).__name__}")
         if not isinstance(table, TablePlane):
-            raise InvalidInputError(f"table must be a symjax.TablePlane, got {type(table).__name__}")
+            raise InvalidInputError(
+                f"table must be a symjax.TablePlane, got {type(table).__name__}"
+            )
         p = np.asarray(points, dtype=np.float64)
         if valid is not None:
             valid = np.asarray(valid, dtype=bool)
@@ -201,7 +203,8 @@ class Observation:
         mask, depth = render_points(p, camera)
         if not mask.any():
             raise EmptyInputError(
-                f"none of the {len(p)} points projects into the {camera.width}x{camera.height} image"
+                f"none of the {len(p)} points projects into the "
+                f"{camera.width}x{camera.height} image"
             )
         mask = fill_mask(mask, fill, close_px)
         return cls.create(p, camera, table, mask, depth)
@@ -232,7 +235,10 @@ class Observation:
         )
 
     def transformed(self, T_new_world: Any) -> Observation:
-        """The same observation after a rigid motion (4, 4) of the world frame (images unchanged)."""
+        """The same observation after a rigid motion (4, 4) of the world frame.
+
+        Images are unchanged.
+        """
         T = np.asarray(T_new_world, dtype=np.float64)
         p = np.asarray(self.points, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
         p[~np.asarray(self.valid)] = 0.0

@@ -14,7 +14,9 @@ __all__ = ["TablePlane"]
 
 @pytree_dataclass
 class TablePlane:
-    """The plane ``{x : normal . x + offset = 0}``; ``normal`` is unit and points up (to the camera).
+    """The plane ``{x : normal . x + offset = 0}``.
+
+    ``normal`` is unit and points up (to the camera).
 
     Attributes:
         normal: Unit normal, shape (3,).

@@ -20,7 +20,8 @@ def shape(kind: str, yaw: float) -> tuple[list[Primitive], list[np.ndarray]]:
     """Primitives of a symmetric object standing on z = 0 rotated by ``yaw`` about z.
 
     Returns the primitives and the normals (3,) of the object's vertical symmetry planes through
-    the origin (empty list = rotationally symmetric about the z axis: any vertical plane through it).
+    the origin (empty list = rotationally symmetric about the z axis: any vertical plane
+    through it).
     """
     q = _quat_z(yaw)
     c, s = math.cos(yaw), math.sin(yaw)

@@ -1,4 +1,4 @@
-"""Test-wide settings: persistent JAX compilation cache, strict rank promotion, shared paths."""
+"""Test-wide settings: persistent JAX compilation cache and shared paths."""
 
 from __future__ import annotations
 
@@ -19,8 +19,6 @@ jax.config.update(
     os.environ.get("JAX_COMPILATION_CACHE_DIR", str(ROOT / ".venv" / "cache" / "jax")),
 )
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
-# Implicit rank promotion hides shape bugs; the library must not rely on it.
-jax.config.update("jax_numpy_rank_promotion", "raise")
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -31,3 +29,10 @@ def shared_dir() -> Path:
     if not SHARED.is_dir():
         pytest.skip("../shared is absent")
     return SHARED
+
+
+@pytest.fixture
+def strict_ranks():
+    """Implicit rank promotion hides shape bugs: tests of JAX kernels run with it as an error."""
+    with jax.numpy_rank_promotion("raise"):
+        yield

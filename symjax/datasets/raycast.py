@@ -71,11 +71,15 @@ def scene_model(
         if p.kind not in _GEOM:
             raise unknown_name("primitive kind", p.kind, list(_GEOM))
         size = list(p.size) + [0.0] * (3 - len(p.size))
-        wb.add_geom(name=f"prim{i}", type=_GEOM[p.kind], size=size, pos=list(p.pos),
-                    quat=list(p.quat))
+        wb.add_geom(
+            name=f"prim{i}", type=_GEOM[p.kind], size=size, pos=list(p.pos), quat=list(p.quat)
+        )
     for i, m in enumerate(meshes):
-        spec.add_mesh(name=f"mesh{i}", uservert=np.asarray(m.vertices, np.float64).ravel(),
-                      userface=np.asarray(m.faces, np.int32).ravel())
+        spec.add_mesh(
+            name=f"mesh{i}",
+            uservert=np.asarray(m.vertices, np.float64).ravel(),
+            userface=np.asarray(m.faces, np.int32).ravel(),
+        )
         wb.add_geom(name=f"meshgeom{i}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"mesh{i}")
     return spec.compile()
 
@@ -109,8 +113,20 @@ def render_depth(
     n = unit.shape[0]
     geomid = np.full(n, -1, np.int32)
     dist = np.full(n, -1.0)
-    mujoco.mj_multiRay(model, data, np.ascontiguousarray(T[:3, 3]), unit.ravel(), None, True, -1,
-                       geomid, dist, None, n, max_depth)
+    mujoco.mj_multiRay(
+        model,
+        data,
+        np.ascontiguousarray(T[:3, 3]),
+        unit.ravel(),
+        None,
+        True,
+        -1,
+        geomid,
+        dist,
+        None,
+        n,
+        max_depth,
+    )
     hit = (dist >= 0) & (geomid >= 0)
     depth = np.where(hit, dist / scale, 0.0).reshape(camera.height, camera.width)
     return depth.astype(np.float32), np.where(hit, geomid, -1).reshape(camera.height, camera.width)

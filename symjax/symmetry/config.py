@@ -31,8 +31,9 @@ class SymmetryConfig:
     +-20 deg reach, while the rectangle's axes are its faces. ``init="eigen"`` is the paper's Eq. 1
     alone.
 
-    Also beyond the paper, ``n_refine`` coarse-to-fine levels re-grid the same n x m hypotheses around
-    the best one with the previous level's step as half-range (level 0 is the paper's grid). With
+    Also beyond the paper, ``n_refine`` coarse-to-fine levels re-grid the same n x m hypotheses
+    around the best one with the previous level's step as half-range (level 0 is the paper's
+    grid). With
     ``n_refine=0`` the search is exactly the paper's.
 
     Attributes:

@@ -206,12 +206,12 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
 def reflect(points, normal, offset):
     """Mirrors points (..., 3) across the plane ``{x : normal . x = offset}`` (Eq. 2)."""
     dist = points @ normal - offset
-    return points - 2.0 * dist[..., None] * normal
+    return points - 2.0 * dist[..., None] * normal[None, :]
 
 
 def _project(view: ViewArrays, q):
     """Pixel coordinates (N, 2) and depth (N,) of world points q (N, 3)."""
-    xc = (q - view.t_wc) @ view.R_wc
+    xc = (q - view.t_wc[None, :]) @ view.R_wc
     z = xc[:, 2]
     zs = jnp.where(z > 1e-6, z, 1e-6)
     K = view.K
@@ -282,8 +282,8 @@ def _initial_plane(view: ViewArrays):
     w = view.valid.astype(jnp.float32)
     cnt = jnp.maximum(w.sum(), 1.0)
     c = (view.points * w[:, None]).sum(0) / cnt
-    d = view.points - c
-    d = d - (d @ n)[:, None] * n  # projection onto the table plane
+    d = view.points - c[None, :]
+    d = d - (d @ n)[:, None] * n[None, :]  # projection onto the table plane
     cov = (d * w[:, None]).T @ d / cnt
     _, vecs = jnp.linalg.eigh(cov)
     e_a, e_b = vecs[:, 2], vecs[:, 1]  # major, minor in-plane eigenvectors
@@ -308,15 +308,15 @@ def _initial_plane(view: ViewArrays):
 def _box_angle(view: ViewArrays, c, m0, side, n_sweep: int = 90):
     """Orientation (radians, relative to m0) of the minimum-area rectangle bounding the
     table-projected cloud, by a sweep over [0, 90) deg (an edge direction is its normal)."""
-    d = view.points - c
+    d = view.points - c[None, :]
     x, y = d @ m0, d @ side
     th = jnp.arange(n_sweep) * (jnp.pi / 2 / n_sweep)
 
     def area(t):
         a = jnp.cos(t) * x + jnp.sin(t) * y
         b = -jnp.sin(t) * x + jnp.cos(t) * y
-        ext = lambda z: jnp.max(jnp.where(view.valid, z, -jnp.inf)) - jnp.min(
-            jnp.where(view.valid, z, jnp.inf)
+        ext = lambda z: (
+            jnp.max(jnp.where(view.valid, z, -jnp.inf)) - jnp.min(jnp.where(view.valid, z, jnp.inf))
         )
         return ext(a) * ext(b)
 
@@ -331,7 +331,7 @@ def _wrap(phi):
 def _plane_grid(n, m0, c, angles, shifts):
     """Normals (A*S, 3) and offsets (A*S,) of the grid of rotated and shifted planes."""
     side = jnp.cross(n, m0)
-    normals = jnp.cos(angles)[:, None] * m0 + jnp.sin(angles)[:, None] * side  # (A, 3)
+    normals = jnp.cos(angles)[:, None] * m0[None, :] + jnp.sin(angles)[:, None] * side[None, :]
     offsets = (normals @ c)[:, None] + shifts[None, :]  # (A, S)
     S = shifts.shape[0]
     return jnp.repeat(normals, S, axis=0), offsets.reshape(-1)
@@ -353,7 +353,7 @@ def _search_view(view: ViewArrays, cfg: SymmetryConfig) -> SymmetryResult:
     starts = jnp.stack(starts)
 
     # Level 0: the paper's fan of n x m hypotheses around every initial axis, one vmap.
-    angles0 = starts[:, None] + unit_a[None, :] * cfg.angle_range  # (n_starts, A)
+    angles0 = starts[:, None] + (unit_a * cfg.angle_range)[None, :]  # (n_starts, A)
     shifts0 = (cfg.shift_min + unit_s * (cfg.shift_max - cfg.shift_min)) * L  # (S,)
     normals, offsets = _plane_grid(n, m0, c, angles0.reshape(-1), shifts0)
     out0, in0, votes0 = score_planes(view, normals, offsets, cfg)
@@ -453,6 +453,14 @@ def _bucket(n: int) -> int:
     return max(256, 1 << int(np.ceil(np.log2(max(n, 1)))))
 
 
+def _check_cfg(cfg) -> SymmetryConfig:
+    if cfg is None:
+        return SymmetryConfig()
+    if not isinstance(cfg, SymmetryConfig):
+        raise InvalidInputError(f"cfg must be a SymmetryConfig, got {type(cfg).__name__}")
+    return cfg
+
+
 def search(obs: Observation, cfg: SymmetryConfig | None = None) -> SymmetryResult:
     """Finds the reflection symmetry plane perpendicular to the table of one view.
 
@@ -466,7 +474,9 @@ def search(obs: Observation, cfg: SymmetryConfig | None = None) -> SymmetryResul
     Raises:
         InvalidInputError: Bad observation (see :meth:`symjax.Observation.create`).
     """
-    cfg = cfg or SymmetryConfig()
+    cfg = _check_cfg(cfg)
+    if not isinstance(obs, Observation):
+        raise InvalidInputError(f"search expects a symjax.Observation, got {type(obs).__name__}")
     view = prepare_view(obs, _bucket(len(np.asarray(obs.points))))
     return _search_jit(view, cfg)
 
@@ -486,12 +496,17 @@ def search_batch(
     Returns:
         A batched :class:`SymmetryResult` (leading axis = view; ``result[i]`` is view i).
     """
-    cfg = cfg or SymmetryConfig()
+    cfg = _check_cfg(cfg)
     if isinstance(observations, Observation):
         raise InvalidInputError("search_batch takes a sequence of Observations; use search()")
     observations = list(observations)
     if not observations:
         raise InvalidInputError("search_batch got no observations")
+    for i, o in enumerate(observations):
+        if not isinstance(o, Observation):
+            raise InvalidInputError(
+                f"search_batch item {i} is a {type(o).__name__}, expected a symjax.Observation"
+            )
     n = _bucket(max(len(np.asarray(o.points)) for o in observations))
     views = [prepare_view(o, n) for o in observations]
     H = max(v.image.shape[0] for v in views)
@@ -533,6 +548,3 @@ def complete(obs: Observation | Sequence[Observation], cfg: SymmetryConfig | Non
         return res.completed_cloud(), res
     res = search_batch(obs, cfg)
     return [res[i].completed_cloud() for i in range(len(res))], res
-
-
-

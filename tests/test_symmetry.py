@@ -1,0 +1,283 @@
+"""Symmetry-plane search: kernel vs numpy reference, invariances, accuracy on synthetic views."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import _scenes
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symjax import Camera, Observation, TablePlane
+from symjax.errors import CameraError, ConfigError, EmptyInputError, ShapeError, SymjaxError
+from symjax.symmetry import (
+    SymmetryConfig,
+    complete,
+    prepare_view,
+    reflect,
+    score_planes,
+    search,
+    search_batch,
+)
+from symjax.symmetry.reference import score_planes_numpy
+
+KINDS = ("box", "cylinder", "bottle")
+ORIENTATIONS = [math.radians(45 * k) for k in range(8)]
+
+
+@pytest.fixture(scope="module")
+def views():
+    """24 noisy views: 3 symmetric objects x 8 orientations (0, 45, ..., 315 deg)."""
+    out = []
+    for kind in KINDS:
+        for k, yaw in enumerate(ORIENTATIONS):
+            obs, planes = _scenes.view(kind, yaw, noise=0.001, seed=k)
+            out.append((kind, k, obs, planes))
+    return out
+
+
+@pytest.fixture(scope="module")
+def batch_result(views):
+    return search_batch([v[2] for v in views], SymmetryConfig())
+
+
+def test_batch_finds_true_planes_within_5deg_5mm(views, batch_result):
+    good = []
+    for i, (_kind, _k, _, planes) in enumerate(views):
+        r = batch_result[i]
+        ang, off = _scenes.plane_error(r.normal, r.offset, planes)
+        good.append(ang <= 5.0 and off <= 0.005)
+    for kind in KINDS:
+        rate = np.mean([g for g, v in zip(good, views, strict=True) if v[0] == kind])
+        assert rate >= 0.9, f"{kind}: {rate:.0%} of views within 5 deg / 5 mm"
+
+
+def test_single_search_matches_batch(views, batch_result, strict_ranks):
+    kind, k, obs, _ = views[3]
+    r = search(obs)
+    b = batch_result[3]
+    np.testing.assert_allclose(np.asarray(r.normal), np.asarray(b.normal), atol=1e-5)
+    np.testing.assert_allclose(float(r.offset), float(b.offset), atol=1e-5)
+    np.testing.assert_allclose(np.asarray(r.votes), np.asarray(b.votes), rtol=2e-3, atol=1e-5)
+
+
+@pytest.mark.parametrize("normalize", ["subset", "all"])
+def test_vmapped_scorer_equals_numpy_loop(views, normalize, strict_ranks):
+    obs = views[10][2]
+    cfg = SymmetryConfig(normalize=normalize)
+    rng = np.random.default_rng(0)
+    ang = rng.uniform(-np.pi, np.pi, 35)
+    normals = np.stack([np.cos(ang), np.sin(ang), np.zeros_like(ang)], axis=1)
+    offsets = rng.uniform(-0.03, 0.03, 35)
+    ref_out, ref_in = score_planes_numpy(obs, normals, offsets, cfg)
+    # The kernel is dtype-generic; run it in float64 so that the comparison checks the formula,
+    # not float32 rounding of points lying on a pixel edge.
+    with jax.enable_x64(True):
+        view = jax.tree_util.tree_map(
+            lambda x: x.astype(jnp.float64) if jnp.issubdtype(x.dtype, jnp.floating) else x,
+            prepare_view(obs),
+        )
+        view = dataclasses.replace(
+            view,
+            points=jnp.asarray(obs.points, jnp.float64),
+            R_wc=jnp.asarray(np.asarray(obs.camera.T_world_cam)[:3, :3], jnp.float64),
+            t_wc=jnp.asarray(np.asarray(obs.camera.T_world_cam)[:3, 3], jnp.float64),
+            K=jnp.asarray(obs.camera.K, jnp.float64),
+        )
+        out, inside, votes = score_planes(
+            view, jnp.asarray(normals, jnp.float64), jnp.asarray(offsets, jnp.float64), cfg
+        )
+        out, inside, votes = np.asarray(out), np.asarray(inside), np.asarray(votes)
+    assert out.dtype == np.float64
+    np.testing.assert_allclose(out, ref_out, rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(inside, ref_in, rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(
+        votes, cfg.w_outside * ref_out + cfg.w_inside * ref_in, rtol=1e-5, atol=1e-9
+    )
+    # The float32 production path differs only by the rare pixel flip of a point on an edge.
+    out32, in32, _ = score_planes(
+        prepare_view(obs), jnp.asarray(normals, jnp.float32), jnp.asarray(offsets, jnp.float32), cfg
+    )
+    np.testing.assert_allclose(np.asarray(out32), ref_out, rtol=1e-3, atol=1e-3)
+    np.testing.assert_allclose(np.asarray(in32), ref_in, rtol=1e-3, atol=1e-6)
+
+
+def test_vote_grid_matches_numpy_on_paper_grid(views):
+    obs = views[0][2]
+    cfg = SymmetryConfig(init="eigen", n_refine=0)
+    r = search(obs, cfg)
+    n = np.array([0.0, 0.0, 1.0])
+    m0 = np.cross(n, np.asarray(r.initial_axis))
+    side = np.cross(n, m0)
+    angles = np.asarray(r.angles)[0]
+    normals = np.cos(angles)[:, None] * m0 + np.sin(angles)[:, None] * side
+    offs = normals @ np.asarray(r.centroid, np.float64)
+    N = np.repeat(normals, cfg.n_shifts, axis=0)
+    O = (offs[:, None] + np.asarray(r.shifts)[None, :]).reshape(-1)
+    ref_out, ref_in = score_planes_numpy(obs, N, O, cfg)
+    np.testing.assert_allclose(
+        np.asarray(r.vote_outside).reshape(-1), ref_out, rtol=1e-4, atol=1e-2
+    )
+    np.testing.assert_allclose(np.asarray(r.vote_inside).reshape(-1), ref_in, rtol=1e-4, atol=1e-6)
+    assert r.votes.shape == (1, 7, 5) and cfg.n_hypotheses == 35
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    n=st.integers(1, 64),
+    ang=st.floats(-math.pi, math.pi),
+    off=st.floats(-1.0, 1.0),
+)
+def test_mirroring_twice_is_identity(n, ang, off):
+    rng = np.random.default_rng(n)
+    p = rng.normal(size=(n, 3)).astype(np.float32)
+    normal = jnp.asarray([math.cos(ang), math.sin(ang), 0.0], jnp.float32)
+    with jax_ranks_raise():
+        q = reflect(reflect(jnp.asarray(p), normal, off), normal, off)
+    np.testing.assert_allclose(np.asarray(q), p, atol=1e-5)
+    # Heights above the table are unchanged by a plane perpendicular to it.
+    np.testing.assert_allclose(np.asarray(reflect(jnp.asarray(p), normal, off))[:, 2], p[:, 2])
+
+
+def jax_ranks_raise():
+    import jax
+
+    return jax.numpy_rank_promotion("raise")
+
+
+def _rigid(yaw: float, t) -> np.ndarray:
+    T = np.eye(4)
+    c, s = math.cos(yaw), math.sin(yaw)
+    # A rotation about a tilted axis as well, so the table is no longer z = 0.
+    Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    a = 0.3
+    Rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+    T[:3, :3] = Rx @ Rz
+    T[:3, 3] = t
+    return T
+
+
+def test_result_moves_with_world_and_camera(views):
+    obs = views[1][2]
+    r0 = search(obs)
+    T = _rigid(0.7, [0.3, -1.2, 0.5])
+    r1 = search(obs.transformed(T))
+    n_expected = T[:3, :3] @ np.asarray(r0.normal)
+    np.testing.assert_allclose(np.asarray(r1.normal), n_expected, atol=2e-3)
+    # The plane offset transforms as d' = d + n' . t.
+    np.testing.assert_allclose(
+        float(r1.offset), float(r0.offset) + n_expected @ T[:3, 3], atol=5e-4
+    )
+    moved = np.asarray(r0.mirrored) @ T[:3, :3].T + T[:3, 3]
+    keep = np.asarray(r0.mirrored_keep)
+    np.testing.assert_allclose(np.asarray(r1.mirrored)[keep], moved[keep], atol=2e-3)
+
+
+def test_result_contents(views, batch_result):
+    obs = views[8][2]  # cylinder at 0 deg
+    r = batch_result[8]
+    n = obs.n_valid
+    cloud = r.completed_cloud()
+    assert n < len(cloud) <= 2 * n
+    plaus = np.asarray(r.plausibility)[np.asarray(r.valid)]
+    assert np.all((plaus >= 0) & (plaus <= 1)) and plaus.mean() > 0.5
+    # Kept mirrored points never lie in front of an observed surface.
+    keep = np.asarray(r.mirrored_keep)
+    uv, z = obs.camera.project(np.asarray(r.mirrored)[keep])
+    col, row = np.rint(np.asarray(uv)).astype(int).T
+    ok = (col >= 0) & (col < 640) & (row >= 0) & (row < 480)
+    d = np.asarray(obs.depth)[row[ok], col[ok]]
+    zz = np.asarray(z)[ok]
+    assert np.all((d == 0) | (zz >= d - SymmetryConfig().depth_tolerance - 1e-6))
+    # The completed cylinder's table-projected centroid is close to the axis (origin).
+    assert np.linalg.norm(cloud[:, :2].mean(0)) < 0.01
+    assert np.linalg.norm(obs.valid_points()[:, :2].mean(0)) > 0.015
+    # Mirrored points are the reflection of the observed ones.
+    np.testing.assert_allclose(
+        np.asarray(r.mirrored),
+        np.asarray(reflect(r.points, r.normal, r.offset)),
+        atol=1e-6,
+    )
+    assert r.votes.shape == (3, 7, 5) and r.refine_votes.shape == (2, 7, 5)
+    assert float(r.vote) <= float(np.asarray(r.votes).min()) + 1e-6
+
+
+def test_complete_convenience(views):
+    obs = views[16][2]
+    cloud, res = complete(obs)
+    assert cloud.shape[1] == 3 and len(cloud) > obs.n_valid
+    clouds, batch = complete([views[16][2], views[17][2]])
+    assert len(clouds) == 2 and len(batch) == 2
+    np.testing.assert_allclose(clouds[0], cloud, atol=1e-5)
+
+
+def test_views_of_different_sizes_batch(views):
+    small = views[0][2]
+    K = np.asarray(small.camera.K).copy()
+    cam = Camera.create(K, np.asarray(small.camera.T_world_cam), 600, 420)
+    pts = small.valid_points()
+    uv, _ = cam.project(pts)
+    uv = np.asarray(uv)
+    inside = (uv[:, 0] < 599) & (uv[:, 1] < 419)
+    cropped = Observation.from_points(pts[inside], cam, small.table)
+    res = search_batch([cropped, views[1][2]])
+    single = search(cropped)
+    np.testing.assert_allclose(np.asarray(res[0].normal), np.asarray(single.normal), atol=1e-4)
+
+
+# -- bad input -------------------------------------------------------------------------------
+
+
+def _cam():
+    K = np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
+    return Camera.look_at([0.8, 0, 0.5], [0, 0, 0.05], K, 640, 480)
+
+
+def test_bad_inputs_raise_symjax_errors():
+    cam, table = _cam(), TablePlane.horizontal()
+    good = np.random.default_rng(0).uniform(-0.03, 0.03, (100, 3)) + [0, 0, 0.05]
+    with pytest.raises(EmptyInputError, match="empty"):
+        Observation.from_points(np.zeros((0, 3)), cam, table)
+    with pytest.raises(EmptyInputError, match="no finite"):
+        Observation.from_points(np.full((50, 3), np.nan), cam, table)
+    with pytest.raises(EmptyInputError, match="at least 10"):
+        Observation.from_points(good[:9], cam, table)
+    with pytest.raises(ShapeError, match=r"\(N, 3\)"):
+        Observation.from_points(good[:, :2], cam, table)
+    with pytest.raises(CameraError, match="behind the camera"):
+        Observation.from_points(good + [2.0, 0, 0], cam, table)
+    obs = Observation.from_points(good, cam, table)
+    with pytest.raises(ShapeError, match="mask"):
+        Observation.create(good, cam, table, np.asarray(obs.mask)[:-1], obs.depth)
+    with pytest.raises(ShapeError, match="depth"):
+        Observation.create(good, cam, table, obs.mask, np.asarray(obs.depth)[:, :-1])
+    bad_K = np.array([[-500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
+    with pytest.raises(CameraError, match="focal"):
+        Camera.create(bad_K, np.eye(4), 640, 480)
+    with pytest.raises(CameraError, match="last row"):
+        Camera.create(np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 1, 1]]), np.eye(4), 640, 480)
+    with pytest.raises(CameraError, match="NaN"):
+        Camera.create(np.full((3, 3), np.nan), np.eye(4), 640, 480)
+    with pytest.raises(ConfigError):
+        SymmetryConfig(n_angles=0)
+    with pytest.raises(ConfigError):
+        SymmetryConfig(normalize="mean")
+    with pytest.raises(SymjaxError):
+        search_batch([])
+    with pytest.raises(SymjaxError):
+        search("not an observation")  # type: ignore[arg-type]
+
+
+def test_nan_rows_are_dropped_not_propagated():
+    cam, table = _cam(), TablePlane.horizontal()
+    pts = np.random.default_rng(1).uniform(-0.03, 0.03, (200, 3)) + [0, 0, 0.05]
+    pts[::7] = np.nan
+    obs = Observation.from_points(pts, cam, table)
+    assert obs.n_valid == 200 - len(pts[::7])
+    r = search(obs, dataclasses.replace(SymmetryConfig(), n_refine=0))
+    assert np.all(np.isfinite(np.asarray(r.normal)))
