@@ -204,7 +204,10 @@ def test_result_contents(views, batch_result):
         atol=1e-6,
     )
     assert r.votes.shape == (3, 7, 5) and r.refine_votes.shape == (2, 7, 5)
-    assert float(r.vote) <= float(np.asarray(r.votes).min()) + 1e-6
+    # The result never loses to the paper's own fan, and a bounding-box axis wins only by a margin.
+    votes = np.asarray(r.votes)
+    assert float(r.vote) <= float(votes[0].min()) + 1e-6
+    assert float(r.vote) <= (1.0 + SymmetryConfig().start_margin) * float(votes.min()) + 1e-6
 
 
 def test_complete_convenience(views):

@@ -33,8 +33,7 @@ class SymmetryConfig:
 
     Also beyond the paper, ``n_refine`` coarse-to-fine levels re-grid the same n x m hypotheses
     around the best one with the previous level's step as half-range (level 0 is the paper's
-    grid). With
-    ``n_refine=0`` the search is exactly the paper's.
+    grid). With ``n_refine=0`` the search is exactly the paper's.
 
     Attributes:
         init: Initial axes: ``"eigen"`` (paper, Eq. 1) or ``"eigen+box"`` (Eq. 1 plus the two
@@ -45,6 +44,10 @@ class SymmetryConfig:
         shift_min: Smallest shift, in units of the extent L (negative = towards the camera).
         shift_max: Largest shift, in units of L.
         n_refine: Coarse-to-fine refinement levels after the paper's grid.
+        start_margin: A bounding-box axis wins over the paper's axis only when its vote is lower
+            by more than this fraction. Rotational objects (cans, cups) score all planes through
+            their axis alike, and among those the paper's, perpendicular to the view, completes
+            the back of the object; wrong planes score several times worse, far beyond 5%.
         w_outside: Weight of E[delta_1], the squared distance (pixels^2) of mirrored points that
             fall outside the segmentation mask (Eq. 3, first term).
         w_inside: Weight of E[delta_2], the depth difference (metres) of mirrored points that fall
@@ -58,6 +61,8 @@ class SymmetryConfig:
         plausibility_px: Pixel scale of the per-point plausibility ``exp(-delta_1 / px^2)``.
         plausibility_depth: Depth scale (metres) of the plausibility ``exp(-delta_2 / depth)``.
         chunk_views: Views scored at once by :func:`search_batch` (bounds memory; 0 = all).
+        chunk_hypotheses: Planes of one view scored at once (bounds the size of the per-point
+            intermediates; 0 = all).
     """
 
     init: Literal["eigen", "eigen+box"] = "eigen+box"
@@ -67,6 +72,7 @@ class SymmetryConfig:
     shift_min: float = -0.1
     shift_max: float = 0.5
     n_refine: int = 2
+    start_margin: float = 0.05
     w_outside: float = 1.0
     w_inside: float = 1000.0
     depth_tolerance: float = 0.002
@@ -74,6 +80,7 @@ class SymmetryConfig:
     plausibility_px: float = 3.0
     plausibility_depth: float = 0.01
     chunk_views: int = 16
+    chunk_hypotheses: int = 64
 
     def __post_init__(self) -> None:
         if self.n_angles < 1 or self.n_shifts < 1:
@@ -84,6 +91,8 @@ class SymmetryConfig:
             raise ConfigError(f"init must be 'eigen' or 'eigen+box', got {self.init!r}")
         if self.n_refine < 0:
             raise ConfigError(f"n_refine must be >= 0, got {self.n_refine}")
+        if not self.start_margin >= 0.0:
+            raise ConfigError(f"start_margin must be >= 0, got {self.start_margin}")
         if not (0.0 <= self.angle_range <= math.pi / 2):
             raise ConfigError(f"angle_range must be in [0, pi/2] rad, got {self.angle_range}")
         if not self.shift_min <= self.shift_max:
@@ -94,13 +103,15 @@ class SymmetryConfig:
             raise ConfigError(f"normalize must be 'subset' or 'all', got {self.normalize!r}")
         if self.plausibility_px <= 0 or self.plausibility_depth <= 0:
             raise ConfigError("plausibility scales must be > 0")
+        if self.chunk_hypotheses < 0:
+            raise ConfigError(f"chunk_hypotheses must be >= 0, got {self.chunk_hypotheses}")
         if self.chunk_views < 0:
             raise ConfigError(f"chunk_views must be >= 0, got {self.chunk_views}")
 
     @property
     def n_hypotheses(self) -> int:
-        """Hypotheses scored per view (all levels)."""
-        return self.n_angles * self.n_shifts * (self.n_starts + self.n_refine)
+        """Hypotheses scored per view: the level-0 fan and each refinement level, per start."""
+        return self.n_angles * self.n_shifts * self.n_starts * (1 + self.n_refine)
 
     @property
     def n_starts(self) -> int:
