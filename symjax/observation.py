@@ -281,8 +281,8 @@ def point_bucket(n: int, minimum: int = 256) -> int:
 def stack_observations(observations: Sequence[Observation], n_points: int | None = None):
     """Stacks views into one batched :class:`Observation` (leading axis = view).
 
-    Points are padded to a common bucketed size (:func:`point_bucket`, or ``n_points``) and images to
-    the largest height and width (padding is outside the mask with no depth).
+    Points are padded to a common bucketed size (:func:`point_bucket`, or ``n_points``) and
+    images to the largest height and width (padding is outside the mask with no depth).
 
     Returns:
         A batched Observation whose camera's ``width``/``height`` are the padded image size.

@@ -603,8 +603,9 @@ def search_batch(
 ) -> SymmetryResult:
     """Searches all hypotheses of all views in one jitted call.
 
-    Views are padded to a common number of points (:func:`symjax.observation.point_bucket`) and image size, then
-    scored by ``lax.map`` over chunks of ``cfg.chunk_views`` views, each chunk one ``vmap``.
+    Views are padded to a common number of points (:func:`symjax.observation.point_bucket`) and
+    image size, then scored by ``lax.map`` over chunks of ``cfg.chunk_views`` views, each chunk
+    one ``vmap``.
 
     Args:
         observations: Single-view observations.
