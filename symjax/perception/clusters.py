@@ -1,0 +1,208 @@
+"""Object clusters above the table: connectivity on the image grid or Euclidean in 3-D.
+
+Depth input keeps the sensor's pixel grid: two neighbouring pixels are connected unless their
+depths jump (a depth discontinuity separates an object from what is behind it), which is
+Euclidean connectivity at the pixel footprint and costs a few milliseconds per frame. Point-cloud
+input is voxel-downsampled and clustered with a k-d tree.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from symjax.perception.config import SegmentationConfig
+
+__all__ = ["cloud_clusters", "grid_outliers", "image_clusters", "statistical_outliers"]
+
+# Offsets (drow, dcol) of the 8 pixel neighbours.
+_N8 = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
+
+
+def _shifted(a: np.ndarray, dr: int, dc: int, fill) -> np.ndarray:
+    """``out[r, c] = a[r + dr, c + dc]`` (``fill`` outside)."""
+    out = np.full_like(a, fill)
+    H, W = a.shape[:2]
+    rs, re = max(0, -dr), min(H, H - dr)
+    cs, ce = max(0, -dc), min(W, W - dc)
+    out[rs:re, cs:ce] = a[rs + dr : re + dr, cs + dc : ce + dc]
+    return out
+
+
+def _jump(depth: np.ndarray, cfg: SegmentationConfig) -> np.ndarray:
+    return cfg.depth_jump + cfg.depth_jump_rel * depth
+
+
+def image_clusters(
+    depth: np.ndarray, height: np.ndarray, candidate: np.ndarray, cfg: SegmentationConfig
+) -> np.ndarray:
+    """Labels object pixels by connectivity on the image grid.
+
+    Pixels whose 4-neighbour is nearer by more than the depth jump are cut first (they are the
+    far side of an occluding edge) and reattached afterwards to the neighbouring cluster with the
+    closest depth, if any is within the jump. A component is an object when at least
+    ``cfg.min_cluster_points`` of its pixels are ``cfg.seed_height`` above the table
+    (hysteresis: components grow down to ``grow_height`` through ``candidate``).
+
+    Args:
+        depth: (H, W) metres, 0 = none.
+        height: (H, W) height above the table, metres.
+        candidate: (H, W) bool pixels that may belong to an object (measured, above
+            ``grow_height``, below ``max_height``, inside the workspace).
+        cfg: Settings.
+
+    Returns:
+        int32 (H, W) labels: 0..K-1 objects, ordered by size (largest first); -1 elsewhere.
+    """
+    import cv2
+
+    thr = _jump(depth, cfg)
+    far_edge = np.zeros_like(candidate)
+    for dr, dc in ((0, 1), (1, 0), (0, -1), (-1, 0)):
+        nb = _shifted(depth, dr, dc, 0.0)
+        far_edge |= (nb > 0) & (depth - nb > thr)
+    core = candidate & ~far_edge
+    n, lab = cv2.connectedComponents(core.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S)
+    seeds = np.bincount(lab[core & (height > cfg.seed_height)], minlength=n)
+    seeds[0] = 0
+    keep = seeds >= cfg.min_cluster_points
+    size = np.bincount(lab.ravel(), minlength=n)
+    order = np.flatnonzero(keep)[np.argsort(-size[keep], kind="stable")]
+    remap = np.full(n, -1, np.int32)
+    remap[order] = np.arange(len(order), dtype=np.int32)
+    labels = remap[lab]
+    # Reattach the cut pixels, pass by pass, to the adjacent object at the closest depth: the
+    # far side of an occluding edge joins its own surface (nearer in depth than the occluder), and
+    # faces seen at grazing angles, whose every pixel steps by more than the jump, grow back
+    # from the face's continuous part.
+    r, c = np.nonzero(candidate & far_edge)
+    H, W = depth.shape
+    while len(r) and len(order):
+        best_dz = np.full(len(r), np.inf, np.float32)
+        best_lab = np.full(len(r), -1, np.int32)
+        z = depth[r, c]
+        for dr, dc in _N8:
+            rr, cc = np.clip(r + dr, 0, H - 1), np.clip(c + dc, 0, W - 1)
+            nl = labels[rr, cc]
+            dz = np.abs(depth[rr, cc] - z)
+            better = (nl >= 0) & (dz < best_dz)
+            best_dz[better] = dz[better]
+            best_lab[better] = nl[better]
+        done = best_lab >= 0
+        if not done.any():
+            break
+        labels[r[done], c[done]] = best_lab[done]
+        r, c = r[~done], c[~done]
+    return labels
+
+
+def grid_outliers(
+    depth: np.ndarray, rays: np.ndarray, labels: np.ndarray, cfg: SegmentationConfig
+) -> np.ndarray:
+    """Statistical outlier removal on the image grid (the 8 pixel neighbours as the k nearest).
+
+    Distances are rigid-invariant, so points are taken in the camera frame.
+
+    Args:
+        depth: (H, W) metres.
+        rays: (H, W, 3) camera-frame rays with unit z (point = depth * ray).
+        labels: (H, W) int labels, -1 = not an object.
+        cfg: ``sor_std_ratio``.
+
+    Returns:
+        bool (H, W): object pixels whose mean distance to their same-label neighbours exceeds the
+        mean over all object pixels by ``sor_std_ratio`` standard deviations, or that have no
+        same-label neighbour.
+    """
+    H, W = labels.shape
+    out = np.zeros((H, W), bool)
+    # A one-pixel frame of non-object pixels: every neighbour index is then inside the arrays.
+    lab = np.pad(labels, 1, constant_values=-1).reshape(-1)
+    pts = np.pad(rays * depth[..., None], ((1, 1), (1, 1), (0, 0))).reshape(-1, 3)
+    idx = np.flatnonzero(lab >= 0)
+    if len(idx) == 0:
+        return out
+    own = lab[idx]
+    P = pts[idx]
+    total = np.zeros(len(idx), np.float32)
+    count = np.zeros(len(idx), np.int32)
+    for dr, dc in _N8:
+        nb = idx + (dr * (W + 2) + dc)
+        same = lab[nb] == own
+        dist = np.sqrt(np.sum((pts[nb] - P) ** 2, axis=1))
+        total += np.where(same, dist, 0.0)
+        count += same
+    mean = total / np.maximum(count, 1)
+    has = count > 0
+    bad = ~has
+    if has.sum() >= 2:
+        vals = mean[has]
+        bad |= has & (mean > vals.mean() + cfg.sor_std_ratio * vals.std())
+    r, c = np.divmod(idx[bad], W + 2)
+    out[r - 1, c - 1] = True
+    return out
+
+
+def statistical_outliers(points: np.ndarray, k: int, std_ratio: float) -> np.ndarray:
+    """PCL-style statistical outlier removal with a k-d tree.
+
+    Args:
+        points: (N, 3) metres.
+        k: Neighbours per point.
+        std_ratio: Threshold in standard deviations above the mean neighbour distance.
+
+    Returns:
+        bool (N,) outliers.
+    """
+    from scipy.spatial import cKDTree
+
+    n = len(points)
+    if n <= k + 1:
+        return np.zeros(n, bool)
+    dist, _ = cKDTree(points).query(points, k=k + 1, workers=-1)
+    mean = dist[:, 1:].mean(axis=1)
+    return mean > mean.mean() + std_ratio * mean.std()
+
+
+def cloud_clusters(points: np.ndarray, height: np.ndarray, cfg: SegmentationConfig) -> np.ndarray:
+    """Euclidean clusters of candidate object points (voxel grid + k-d tree).
+
+    Args:
+        points: (N, 3) candidate points (above ``grow_height``), metres.
+        height: (N,) their height above the table, metres.
+        cfg: ``voxel_size``, ``cluster_tolerance``, ``seed_height``, ``min_cluster_points``,
+            ``sor_*``.
+
+    Returns:
+        int32 (N,) labels: 0..K-1 objects, largest first; -1 for noise, small clusters and
+        outliers.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    n = len(points)
+    if n == 0:
+        return np.zeros(0, np.int32)
+    keys = np.floor(points / cfg.voxel_size).astype(np.int64)
+    _, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inv = inv.reshape(-1)
+    nv = len(first)
+    cent = np.zeros((nv, 3))
+    np.add.at(cent, inv, points)
+    cent /= np.bincount(inv, minlength=nv)[:, None]
+    pairs = cKDTree(cent).query_pairs(cfg.cluster_tolerance, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(nv, nv))
+    _, vlab = connected_components(graph, directed=False)
+    lab = vlab[inv]
+    seeds = np.bincount(lab[height > cfg.seed_height], minlength=vlab.max() + 1)
+    keep = seeds >= cfg.min_cluster_points
+    size = np.bincount(lab, minlength=len(keep))
+    order = np.flatnonzero(keep)[np.argsort(-size[keep], kind="stable")]
+    remap = np.full(len(keep), -1, np.int32)
+    remap[order] = np.arange(len(order), dtype=np.int32)
+    labels = remap[lab]
+    for k in range(len(order)):
+        idx = np.flatnonzero(labels == k)
+        out = statistical_outliers(points[idx], cfg.sor_neighbours, cfg.sor_std_ratio)
+        labels[idx[out]] = -1
+    return labels

@@ -1,0 +1,142 @@
+"""Configuration of the table-top segmentation (the paper's ``GetObjectHypotheses``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from symjax.errors import ConfigError
+
+__all__ = ["SegmentationConfig"]
+
+
+@dataclasses.dataclass(frozen=True)
+class SegmentationConfig:
+    """Parameters of :func:`symjax.perception.segment`.
+
+    Attributes:
+        ransac_hypotheses: Plane hypotheses (point triples) scored at once in one jitted vmap.
+        ransac_sample: Points the hypotheses are scored on (a random subsample; fixed size so the
+            kernel compiles once).
+        inlier_threshold: Distance (m) under which a point supports a plane; the MSAC cost
+            truncates squared residuals here, and the least-squares refinement uses these inliers.
+        refine_iterations: Least-squares refinements of the best plane on its inliers.
+        refine_sample: Points (a random subsample) the refinement fits the plane to.
+        up: Optional world direction (3,) the table normal must be near (e.g. (0, 0, 1) when the
+            camera pose is in a z-up world); None accepts any plane.
+        max_tilt: Largest angle (rad) between the table normal and ``up``.
+        min_table_fraction: Fewest plane inliers, as a fraction of the measured points, for the
+            plane to count as a table.
+        seed_height: Height (m) above the table a cluster must reach to be an object (hysteresis
+            high threshold; keeps sensor noise on the table out).
+        grow_height: Height (m) above the table of the points a cluster may grow into (hysteresis
+            low threshold; keeps the bottom of the objects).
+        max_height: Points higher than this above the table (m) are ignored.
+        workspace_min: Optional lower corner (3,) of a world box objects must lie in, metres.
+        workspace_max: Optional upper corner (3,) of that box, metres.
+        table_hull: Keep only points that project inside the convex hull of the table's inliers
+            in the image (depth input).
+        fill_holes_px: Missing measurements (depth 0) up to about this many pixels from a measured
+            pixel get the nearest surface's depth for the connectivity only (stereo holes would
+            otherwise split objects); they stay out of the objects' points.
+        depth_jump: Depth step (m) between neighbouring pixels that separates two surfaces ...
+        depth_jump_rel: ... plus this fraction of the depth (stereo noise grows with depth).
+        cluster_tolerance: Euclidean clustering distance for point-cloud input, metres.
+        voxel_size: Voxel edge (m) the cloud is downsampled to before clustering (cloud input).
+        min_cluster_points: Fewest seed points (pixels above ``seed_height``) of an object.
+        sor_neighbours: Neighbours of the statistical outlier removal (cloud input; depth input
+            uses the 8 pixel neighbours).
+        sor_std_ratio: A point is an outlier when its mean neighbour distance exceeds the mean
+            over the cloud by this many standard deviations.
+        border_px: An object whose mask comes this close (pixels) to the image border is flagged
+            as cut by the border.
+        touch_px: Two objects whose masks come this close (pixels) are flagged as touching.
+        max_object_extent: A cluster wider than this (m) on the table is flagged as possibly
+            several touching objects.
+        mask_fill: Fill of each object's mask, see :meth:`symjax.Observation.from_points`.
+        seed: Random seed of the RANSAC sampling (results are deterministic).
+    """
+
+    ransac_hypotheses: int = 256
+    ransac_sample: int = 4096
+    inlier_threshold: float = 0.008
+    refine_iterations: int = 2
+    refine_sample: int = 32768
+    up: tuple[float, float, float] | None = None
+    max_tilt: float = math.radians(30.0)
+    min_table_fraction: float = 0.05
+    seed_height: float = 0.012
+    grow_height: float = 0.004
+    max_height: float = 0.5
+    workspace_min: tuple[float, float, float] | None = None
+    workspace_max: tuple[float, float, float] | None = None
+    table_hull: bool = True
+    fill_holes_px: int = 2
+    depth_jump: float = 0.01
+    depth_jump_rel: float = 0.02
+    cluster_tolerance: float = 0.012
+    voxel_size: float = 0.005
+    min_cluster_points: int = 200
+    sor_neighbours: int = 8
+    sor_std_ratio: float = 3.0
+    border_px: int = 2
+    touch_px: int = 3
+    max_object_extent: float = 0.4
+    mask_fill: str = "close"
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.ransac_hypotheses < 1 or self.ransac_sample < 3:
+            raise ConfigError(
+                f"ransac_hypotheses must be >= 1 and ransac_sample >= 3, got "
+                f"{self.ransac_hypotheses}, {self.ransac_sample}"
+            )
+        positive = {
+            "inlier_threshold": self.inlier_threshold,
+            "seed_height": self.seed_height,
+            "max_height": self.max_height,
+            "cluster_tolerance": self.cluster_tolerance,
+            "voxel_size": self.voxel_size,
+            "sor_std_ratio": self.sor_std_ratio,
+            "max_object_extent": self.max_object_extent,
+        }
+        for k, v in positive.items():
+            if not (math.isfinite(v) and v > 0):
+                raise ConfigError(f"{k} must be > 0, got {v}")
+        if not 0 <= self.grow_height <= self.seed_height < self.max_height:
+            raise ConfigError(
+                "need 0 <= grow_height <= seed_height < max_height (m), got "
+                f"{self.grow_height}, {self.seed_height}, {self.max_height}"
+            )
+        if self.depth_jump <= 0 or self.depth_jump_rel < 0:
+            raise ConfigError("depth_jump must be > 0 and depth_jump_rel >= 0")
+        if self.refine_sample < 3:
+            raise ConfigError(f"refine_sample must be >= 3, got {self.refine_sample}")
+        if self.refine_iterations < 0 or self.min_cluster_points < 1 or self.sor_neighbours < 1:
+            raise ConfigError(
+                "refine_iterations must be >= 0, min_cluster_points and sor_neighbours >= 1"
+            )
+        if not 0 <= self.min_table_fraction <= 1:
+            raise ConfigError(
+                f"min_table_fraction must be in [0, 1], got {self.min_table_fraction}"
+            )
+        if not 0 < self.max_tilt <= math.pi / 2:
+            raise ConfigError(f"max_tilt must be in (0, pi/2] rad, got {self.max_tilt}")
+        if self.up is not None and (len(self.up) != 3 or not any(self.up)):
+            raise ConfigError(f"up must be None or a non-zero 3-vector, got {self.up}")
+        if (self.workspace_min is None) != (self.workspace_max is None):
+            raise ConfigError("give both workspace_min and workspace_max, or neither")
+        if self.workspace_min is not None and (
+            len(self.workspace_min) != 3
+            or len(self.workspace_max) != 3
+            or any(a >= b for a, b in zip(self.workspace_min, self.workspace_max, strict=True))
+        ):
+            raise ConfigError("workspace_min must be below workspace_max on every axis (3,)")
+        if self.fill_holes_px < 0:
+            raise ConfigError(f"fill_holes_px must be >= 0, got {self.fill_holes_px}")
+        if self.border_px < 0 or self.touch_px < 0:
+            raise ConfigError("border_px and touch_px must be >= 0")
+        if self.mask_fill not in ("none", "close", "hull"):
+            raise ConfigError(
+                f"mask_fill must be 'none', 'close' or 'hull', got {self.mask_fill!r}"
+            )

@@ -1,0 +1,268 @@
+"""Table-top segmentation: RANSAC kernel, table plane, object masks on synthetic scenes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from symjax.camera import Camera
+from symjax.datasets.raycast import Primitive
+from symjax.errors import (
+    ConfigError,
+    DegenerateGeometryError,
+    EmptyInputError,
+    InvalidInputError,
+    ShapeError,
+)
+from symjax.io import DepthFrame, PointCloud
+from symjax.perception import SegmentationConfig, fit_table_plane, segment
+from symjax.perception.ransac import plane_costs
+from symjax.perception.synthetic import K_SCENE, tabletop_scene
+
+#: Stereo-like depth noise: sigma = NOISE * z^2 (2 mm at 1 m).
+NOISE = 0.002
+
+
+def _match_ious(truth: np.ndarray, scene) -> np.ndarray:
+    """Best one-to-one IoU of each truth object with a found object (0 when unmatched)."""
+    from scipy.optimize import linear_sum_assignment
+
+    n = int(truth.max()) + 1
+    iou = np.zeros((n, max(len(scene), 1)))
+    for i in range(n):
+        t = truth == i
+        for j, o in enumerate(scene.objects):
+            m = np.asarray(o.mask)
+            iou[i, j] = (t & m).sum() / (t | m).sum()
+    r, c = linear_sum_assignment(-iou)
+    out = np.zeros(n)
+    out[r] = iou[r, c]
+    return out
+
+
+def _normal_error_deg(table) -> float:
+    return math.degrees(math.acos(min(1.0, float(np.asarray(table.normal) @ [0.0, 0.0, 1.0]))))
+
+
+@pytest.fixture(scope="session")
+def scenes():
+    # 3 to 6 objects, each with its own random camera azimuth, table height and roll.
+    return [
+        tabletop_scene(n, seed=20 + n, noise=NOISE, table_height=0.1 * n - 0.4, roll_deg=5.0 * n)
+        for n in (3, 4, 5, 6)
+    ]
+
+
+@pytest.fixture(scope="session")
+def fixed_camera() -> Camera:
+    return Camera.look_at((1.0, 0.0, 0.8), (0.0, 0.0, 0.0), K_SCENE, 640, 480)
+
+
+def test_plane_costs_match_numpy(strict_ranks):
+    rng = np.random.default_rng(0)
+    sample = rng.normal(size=(64, 3)).astype(np.float32)
+    triples = rng.integers(0, 64, (16, 3)).astype(np.int32)
+    triples[3] = [5, 5, 7]  # degenerate
+    up = np.array([0.0, 0.6, 0.8], np.float32)
+    costs, normals, offsets = plane_costs(sample, triples, np.float32(0.3), up, np.float32(0.5))
+    for k, (a, b, c) in enumerate(triples):
+        n = np.cross(sample[b] - sample[a], sample[c] - sample[a]).astype(np.float64)
+        if np.linalg.norm(n) < 1e-9 or abs(n @ up) / np.linalg.norm(n) < 0.5:
+            assert np.isinf(costs[k])
+            continue
+        n /= np.linalg.norm(n)
+        r = sample @ n - n @ sample[a]
+        np.testing.assert_allclose(costs[k], np.minimum(r**2, 0.09).sum(), rtol=1e-4)
+        np.testing.assert_allclose(abs(normals[k] @ n), 1.0, atol=1e-5)
+    assert np.isinf(costs[3])
+
+
+def test_fit_table_plane_with_outliers():
+    rng = np.random.default_rng(1)
+    n_true = np.array([0.2, -0.1, 1.0]) / np.linalg.norm([0.2, -0.1, 1.0])
+    a = np.cross(n_true, [1.0, 0, 0])
+    a /= np.linalg.norm(a)
+    b = np.cross(n_true, a)
+    uv = rng.uniform(-0.5, 0.5, (6000, 2))
+    plane = uv[:, :1] * a + uv[:, 1:] * b + 0.3 * n_true + rng.normal(0, 0.001, (6000, 1)) * n_true
+    clutter = rng.uniform(-0.5, 0.5, (3000, 3)) + [0, 0, 0.6]
+    pts = np.concatenate([plane, clutter])
+    table, inliers = fit_table_plane(pts, viewpoint=(0.0, 0.0, 2.0))
+    err = math.degrees(math.acos(min(1.0, float(np.asarray(table.normal) @ n_true))))
+    assert err < 0.2
+    assert abs(float(table.offset) + 0.3) < 1e-3  # n . x - 0.3 = 0, normal towards the viewpoint
+    assert inliers[:6000].mean() > 0.99
+    assert inliers[6000:].mean() < 0.05
+    with pytest.raises(DegenerateGeometryError):
+        fit_table_plane(rng.uniform(-1, 1, (5000, 3)))  # no dominant plane
+    with pytest.raises(EmptyInputError):
+        fit_table_plane(np.full((10, 3), np.nan))
+    with pytest.raises(ShapeError):
+        fit_table_plane(np.zeros((10, 2)))
+
+
+def test_multi_object_scenes(scenes):
+    for sc in scenes:
+        res = segment(sc.depth, sc.camera)
+        n = len(sc.primitives)
+        assert _normal_error_deg(res.table) < 1.0
+        # The table passes through z = table_height.
+        assert abs(float(res.table.offset) + sc.table_height) < 0.003
+        assert len(res) == n, res.warnings
+        ious = _match_ious(sc.truth, res)
+        assert ious.min() >= 0.9, ious
+        assert not any(i.touches_border for i in res.info)
+        # Each object's depth image is the frame's depth on its mask.
+        for o in res.objects:
+            d, m = np.asarray(o.depth), np.asarray(o.mask)
+            np.testing.assert_array_equal(d[d > 0], sc.depth[d > 0])
+            assert np.all(m[d > 0]) and o.n_valid == int((d > 0).sum())
+
+
+def test_point_cloud_and_frame_inputs(scenes):
+    sc = scenes[1]
+    pts, valid = sc.camera.backproject(sc.depth)
+    cloud = np.asarray(pts)[np.asarray(valid)]
+    res = segment(cloud, sc.camera)
+    assert _normal_error_deg(res.table) < 1.0
+    assert len(res) == len(sc.primitives)
+    assert _match_ious(sc.truth, res).min() >= 0.85
+    framed = segment(DepthFrame(sc.depth, sc.camera))
+    assert len(framed) == len(sc.primitives)
+    # Only a viewpoint: each object gets a virtual camera looking at it.
+    vp = segment(PointCloud(cloud, viewpoint=np.asarray(sc.camera.position)))
+    assert len(vp) == len(sc.primitives)
+    for o in vp.objects:
+        uv, _ = o.camera.project(o.valid_points().mean(axis=0))
+        np.testing.assert_allclose(np.asarray(uv), [320.0, 240.0], atol=1e-3)
+
+
+def test_empty_table(fixed_camera):
+    sc = tabletop_scene(primitives=(), camera=fixed_camera, noise=NOISE)
+    res = segment(sc.depth, sc.camera)
+    assert res.empty and len(res) == 0 and res.info == ()
+    assert any("empty table" in w for w in res.warnings)
+    assert _normal_error_deg(res.table) < 1.0
+    assert np.all(res.labels == -1) and res.table_mask.mean() > 0.9
+
+
+def test_occluding_and_touching_objects(fixed_camera):
+    prims = (
+        Primitive("box", (0.04, 0.05, 0.06), (0.0, 0.0, 0.06)),  # front
+        Primitive("cylinder", (0.04, 0.1), (-0.15, 0.02, 0.1)),  # behind it, taller
+        Primitive("box", (0.04, 0.04, 0.05), (0.05, 0.3, 0.05)),  # two boxes touching in 3-D
+        Primitive("box", (0.04, 0.04, 0.04), (0.05, 0.38, 0.04)),
+    )
+    sc = tabletop_scene(primitives=prims, camera=fixed_camera, noise=NOISE)
+    res = segment(sc.depth, sc.camera)
+    ious = _match_ious(sc.truth, res)
+    # The occluder and the occluded object are separated by the depth step.
+    assert ious[0] >= 0.9 and ious[1] >= 0.9, ious
+    front = int(np.argmax([(sc.truth == 0)[np.asarray(o.mask)].mean() for o in res.objects]))
+    back = int(np.argmax([(sc.truth == 1)[np.asarray(o.mask)].mean() for o in res.objects]))
+    assert back in res.info[front].neighbours and front in res.info[back].occluded_by
+    assert front not in res.info[back].neighbours or back not in res.info[front].occluded_by
+    assert any("hidden" in w for w in res.warnings)
+    # The boxes that touch at the same depth are found as one hypothesis covering both ...
+    both = (sc.truth == 2) | (sc.truth == 3)
+    cover = max((both & np.asarray(o.mask)).sum() / both.sum() for o in res.objects)
+    assert cover >= 0.9
+    # ... which is flagged when wider than max_object_extent.
+    merged = segment(sc.depth, sc.camera, SegmentationConfig(max_object_extent=0.12))
+    wide = [i for i in merged.info if i.maybe_merged]
+    assert wide and all(i.extent > 0.12 for i in wide)
+    assert any("several touching objects" in w for w in merged.warnings)
+
+
+def test_object_cut_by_border(fixed_camera):
+    prims = (
+        Primitive("box", (0.04, 0.04, 0.05), (0.0, 0.68, 0.05)),
+        Primitive("cylinder", (0.04, 0.06), (0.0, 0.0, 0.06)),
+    )
+    sc = tabletop_scene(primitives=prims, camera=fixed_camera, noise=NOISE)
+    assert (sc.truth == 0)[:, -1].any()  # the scene really cuts object 0
+    res = segment(sc.depth, sc.camera)
+    assert len(res) == 2
+    ious = _match_ious(sc.truth, res)
+    assert ious.min() >= 0.9
+    cut = [i.touches_border for i in res.info]
+    assert sorted(cut) == [False, True]
+    assert any("border" in w for w in res.warnings)
+
+
+def test_workspace_and_bad_input(scenes):
+    sc = scenes[0]
+    res = segment(sc.depth, sc.camera)
+    c = res.info[0].centroid
+    box = SegmentationConfig(workspace_min=tuple(c - 0.1), workspace_max=tuple(c + [0.1, 0.1, 0.3]))
+    only = segment(sc.depth, sc.camera, box)
+    assert len(only) == 1 and np.linalg.norm(only.info[0].centroid - c) < 0.005
+    with pytest.raises(ShapeError):
+        segment(sc.depth[:100], sc.camera)
+    with pytest.raises(InvalidInputError):
+        segment(sc.depth)  # a depth image without its camera
+    with pytest.raises(InvalidInputError):
+        segment(sc.depth, sc.camera, cfg={"seed": 1})
+    with pytest.raises(EmptyInputError):
+        segment(np.zeros_like(sc.depth), sc.camera)
+    with pytest.raises(InvalidInputError):
+        segment(-sc.depth, sc.camera)
+    nan = sc.depth.copy()
+    nan[::7] = np.nan  # missing measurements are fine
+    assert len(segment(nan, sc.camera)) == len(res)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"ransac_hypotheses": 0},
+        {"inlier_threshold": -1.0},
+        {"grow_height": 0.05, "seed_height": 0.01},
+        {"workspace_min": (0, 0, 0)},
+        {"workspace_min": (0, 0, 0), "workspace_max": (1, -1, 1)},
+        {"up": (0, 0, 0)},
+        {"mask_fill": "blur"},
+        {"max_tilt": 0.0},
+    ],
+)
+def test_config_errors(kw):
+    with pytest.raises(ConfigError):
+        SegmentationConfig(**kw)
+
+
+def test_up_hint_rejects_walls(fixed_camera):
+    # A wall that holds more points than the table: without a hint RANSAC takes the wall.
+    sc = tabletop_scene(primitives=(), camera=fixed_camera, noise=0.0)
+    pts, valid = sc.camera.backproject(sc.depth)
+    table = np.asarray(pts)[np.asarray(valid)][::4]
+    rng = np.random.default_rng(5)
+    wall = np.column_stack(
+        [np.full(len(table) * 2, -0.5), rng.uniform(-1, 1, (len(table) * 2, 2)) + [0, 0.5]]
+    )
+    cloud = np.concatenate([table, wall])
+    naive, _ = fit_table_plane(cloud)
+    assert abs(float(np.asarray(naive.normal)[0])) > 0.99
+    hinted, _ = fit_table_plane(cloud, SegmentationConfig(up=(0.0, 0.0, 1.0)))
+    assert _normal_error_deg(hinted) < 0.5
+
+
+def test_deterministic(scenes):
+    sc = scenes[2]
+    a, b = segment(sc.depth, sc.camera), segment(sc.depth, sc.camera)
+    np.testing.assert_array_equal(a.labels, b.labels)
+    np.testing.assert_array_equal(np.asarray(a.table.normal), np.asarray(b.table.normal))
+
+
+def test_segmented_object_feeds_symmetry_search(scenes):
+    from symjax.symmetry import search
+
+    sc = scenes[0]
+    res = segment(sc.depth, sc.camera)
+    out = search(res.objects[0])
+    n = np.asarray(out.normal)
+    # The symmetry plane is perpendicular to the found table and passes near the object.
+    assert abs(float(n @ np.asarray(res.table.normal))) < 1e-3
+    c = res.info[0].centroid
+    assert abs(float(n @ c) - float(out.offset)) < 0.1
