@@ -21,20 +21,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _write_ply(path: Path, points) -> None:
-    import numpy as np
-
-    from symjax._atomic import atomic_write_bytes
-
-    pts = np.asarray(points, np.float32)
-    head = (
-        "ply\nformat binary_little_endian 1.0\n"
-        f"element vertex {len(pts)}\nproperty float x\nproperty float y\nproperty float z\n"
-        "end_header\n"
-    )
-    atomic_write_bytes(path, head.encode("ascii") + pts.astype("<f4").tobytes())
-
-
 def _figure(path: Path, results, views) -> None:
     import io
 
@@ -79,6 +65,7 @@ def main(argv=None) -> int:
 
     from symjax._atomic import atomic_write_json
     from symjax.datasets.primitives import KINDS, plane_error, primitive_view
+    from symjax.io import write_point_cloud
     from symjax.symmetry import SymmetryConfig, search_batch
 
     out = Path(args.out)
@@ -102,7 +89,7 @@ def main(argv=None) -> int:
         results.append(r)
         ang, off = plane_error(r.normal, r.offset, planes)
         cloud = r.completed_cloud()
-        _write_ply(out / "clouds" / f"{kind}_{deg:03d}.ply", cloud)
+        write_point_cloud(out / "clouds" / f"{kind}_{deg:03d}.ply", cloud)
         rows.append(
             {
                 "object": kind,

@@ -24,6 +24,30 @@ from symjax.table import TablePlane
 
 __version__ = "0.1.0"
 
+# Pipeline stages as subpackages, imported on first use: `import symjax` stays light (no MuJoCo,
+# no coacd) for users of the completion alone.
+_SUBPACKAGES = (
+    "datasets",
+    "decompose",
+    "grasp",
+    "hands",
+    "io",
+    "metrics",
+    "perception",
+    "robots",
+    "surface",
+    "symmetry",
+)
+
+
+def __getattr__(name: str):
+    if name in _SUBPACKAGES:
+        import importlib
+
+        return importlib.import_module(f"symjax.{name}")
+    raise AttributeError(f"module 'symjax' has no attribute {name!r}")
+
+
 __all__ = [
     "Camera",
     "CameraError",
