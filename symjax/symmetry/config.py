@@ -60,7 +60,8 @@ class SymmetryConfig:
             violating points weigh less than many.
         plausibility_px: Pixel scale of the per-point plausibility ``exp(-delta_1 / px^2)``.
         plausibility_depth: Depth scale (metres) of the plausibility ``exp(-delta_2 / depth)``.
-        chunk_views: Views scored at once by :func:`search_batch` (bounds memory; 0 = all).
+        chunk_views: Views scored at once by :func:`search_batch` (bounds memory and keeps the
+            intermediates in cache: 4 was fastest on a 2-core CPU; 0 = all).
         chunk_hypotheses: Planes of one view scored at once (bounds the size of the per-point
             intermediates; 0 = all).
     """
@@ -79,7 +80,7 @@ class SymmetryConfig:
     normalize: Literal["subset", "all"] = "subset"
     plausibility_px: float = 3.0
     plausibility_depth: float = 0.01
-    chunk_views: int = 16
+    chunk_views: int = 4
     chunk_hypotheses: int = 64
 
     def __post_init__(self) -> None:

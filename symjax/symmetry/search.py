@@ -366,14 +366,16 @@ def _score_chunk(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
     out_w = (valid & ~inside).astype(dist.dtype)
     zero = jnp.zeros((), dist.dtype)
     # One variadic reduction: a single pass over the points instead of one per sum.
-    s_out, s_in, n_out, n_in = jax.lax.reduce(
-        (delta1 * out_w, delta2 * in_w, out_w, in_w),
-        (zero, zero, zero, zero),
+    s_out, s_in, n_in = jax.lax.reduce(
+        (delta1 * out_w, delta2 * in_w, in_w),
+        (zero, zero, zero),
         lambda a, b: tuple(x + y for x, y in zip(a, b, strict=True)),
         (1,),
     )
+    n_valid = view.valid.sum().astype(dist.dtype)
+    n_out = n_valid - n_in
     if cfg.normalize == "all":
-        n_out = n_in = jnp.broadcast_to(view.valid.sum().astype(dist.dtype), n_out.shape)
+        n_out = n_in = jnp.broadcast_to(n_valid, n_in.shape)
     return s_out / jnp.maximum(n_out, 1.0), s_in / jnp.maximum(n_in, 1.0)
 
 
