@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import platform
 import statistics
 import sys
@@ -182,7 +183,8 @@ def main(argv=None) -> int:
     rows = []
 
     def emit(row):
-        row = {**row, **env}
+        # Other processes on a small CPU change the figures: record how busy it was.
+        row = {**row, **env, "load_avg_1m": round(os.getloadavg()[0], 2)}
         rows.append(row)
         print(json.dumps(row), flush=True)
 
