@@ -29,7 +29,7 @@ lint: venv
 	$(PY) -m ruff check symjax tests scripts
 
 bench: venv
-	$(PY) scripts/bench_symmetry.py
+	@for b in scripts/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 clean:
 	rm -rf $(VENV) .pytest_cache
