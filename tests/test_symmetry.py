@@ -203,7 +203,7 @@ def test_result_contents(views, batch_result):
         np.asarray(reflect(r.points, r.normal, r.offset)),
         atol=1e-6,
     )
-    assert r.votes.shape == (3, 7, 5) and r.refine_votes.shape == (2, 7, 5)
+    assert r.votes.shape == (2, 7, 5) and r.refine_votes.shape == (2, 7, 5)
     # The result never loses to the paper's own fan, and a bounding-box axis wins only by a margin.
     votes = np.asarray(r.votes)
     assert float(r.vote) <= float(votes[0].min()) + 1e-6

@@ -25,25 +25,29 @@ class SymmetryConfig:
     missing), so the range is skewed backwards: by default from 0.1 L towards the camera to 0.5 L
     away from it, a step of 0.15 L.
 
-    Beyond the paper, ``init="eigen+box"`` also fans the n x m hypotheses out around the two axes
-    of the minimum-area rectangle bounding the table-projected cloud: seen across a corner, a
-    box's eigenvectors are diagonal, 45 deg from either symmetry plane and out of the paper's
-    +-20 deg reach, while the rectangle's axes are its faces. ``init="eigen"`` is the paper's Eq. 1
-    alone.
+    Beyond the paper, ``init="eigen+box"`` also fans the n x m hypotheses out around an axis of
+    the minimum-area rectangle bounding the table-projected cloud: seen across a corner, a box's
+    eigenvectors are diagonal, 45 deg from either symmetry plane and out of the paper's +-20 deg
+    reach, while the rectangle's axes are its faces. Of the rectangle's two axes, the one chosen
+    by Eq. 1's rule is used (the plane whose normal is closest to the viewing direction): the other
+    plane maps the visible surface onto itself, so it votes well but completes nothing.
+    ``init="eigen"`` is the paper's Eq. 1 alone.
 
     Also beyond the paper, ``n_refine`` coarse-to-fine levels re-grid the same n x m hypotheses
     around the best one with the previous level's step as half-range (level 0 is the paper's
     grid). With ``n_refine=0`` the search is exactly the paper's.
 
     Attributes:
-        init: Initial axes: ``"eigen"`` (paper, Eq. 1) or ``"eigen+box"`` (Eq. 1 plus the two
-            axes of the minimum-area bounding rectangle).
+        init: Initial axes: ``"eigen"`` (paper, Eq. 1) or ``"eigen+box"`` (Eq. 1 plus the
+            view-facing axis of the minimum-area bounding rectangle).
         n_angles: Number of plane orientations per level.
         n_shifts: Number of plane shifts per level.
         angle_range: Half-range of orientations around the initial axis, radians (paper: 20 deg).
         shift_min: Smallest shift, in units of the extent L (negative = towards the camera).
         shift_max: Largest shift, in units of L.
         n_refine: Coarse-to-fine refinement levels after the paper's grid.
+        n_chains: Orientations per initial axis refined on their own (the best shift of each of
+            the best ``n_chains`` orientations of the level-0 fan).
         start_margin: A bounding-box axis wins over the paper's axis only when its vote is lower
             by more than this fraction. Rotational objects (cans, cups) score all planes through
             their axis alike, and among those the paper's, perpendicular to the view, completes
@@ -73,6 +77,7 @@ class SymmetryConfig:
     shift_min: float = -0.1
     shift_max: float = 0.5
     n_refine: int = 2
+    n_chains: int = 2
     start_margin: float = 0.05
     w_outside: float = 1.0
     w_inside: float = 1000.0
@@ -92,6 +97,8 @@ class SymmetryConfig:
             raise ConfigError(f"init must be 'eigen' or 'eigen+box', got {self.init!r}")
         if self.n_refine < 0:
             raise ConfigError(f"n_refine must be >= 0, got {self.n_refine}")
+        if self.n_chains < 1:
+            raise ConfigError(f"n_chains must be >= 1, got {self.n_chains}")
         if not self.start_margin >= 0.0:
             raise ConfigError(f"start_margin must be >= 0, got {self.start_margin}")
         if not (0.0 <= self.angle_range <= math.pi / 2):
@@ -112,9 +119,10 @@ class SymmetryConfig:
     @property
     def n_hypotheses(self) -> int:
         """Hypotheses scored per view: the level-0 fan and each refinement level, per start."""
-        return self.n_angles * self.n_shifts * self.n_starts * (1 + self.n_refine)
+        refined = self.n_refine * min(self.n_chains, self.n_angles)
+        return self.n_angles * self.n_shifts * self.n_starts * (1 + refined)
 
     @property
     def n_starts(self) -> int:
         """Initial axes the level-0 grid fans out around."""
-        return 1 if self.init == "eigen" else 3
+        return 1 if self.init == "eigen" else 2

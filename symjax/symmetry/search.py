@@ -469,8 +469,14 @@ def _search_view(view: ViewArrays, cfg: SymmetryConfig, gate) -> SymmetryResult:
 
     starts = [jnp.float32(0.0)]
     if cfg.init == "eigen+box":
-        box = _box_angle(view, c, m0, side)
-        starts += [_wrap(box), _wrap(box + jnp.pi / 2)]
+        # Of the rectangle's two axes keep, as Eq. 1 does among the eigenvectors, the plane whose
+        # normal is closest to the viewing direction: the other one maps the visible surface
+        # onto itself, scores well and completes nothing behind the object.
+        away = c - view.t_wc
+        view_angle = jnp.arctan2(away @ side, away @ m0)
+        a0, a1 = _wrap(box := _box_angle(view, c, m0, side)), _wrap(box + jnp.pi / 2)
+        d0, d1 = jnp.abs(_wrap(a0 - view_angle)), jnp.abs(_wrap(a1 - view_angle))
+        starts.append(jnp.where(d0 <= d1, a0, a1))
     starts = jnp.stack(starts)
 
     # Level 0: the paper's fan of n x m hypotheses around every initial axis, one vmap.
@@ -481,11 +487,21 @@ def _search_view(view: ViewArrays, cfg: SymmetryConfig, gate) -> SymmetryResult:
     k = jnp.argmin(votes0)
     ks, rem = k // (A * S), k % (A * S)
     ia, js = rem // S, rem % S
-    # Each initial axis keeps its own best hypothesis and is refined on its own: on the coarse
-    # grid the right fan can lose to a wrong one only because its true shift lies between steps.
-    per_start = votes0.reshape(-1, A * S)
-    kk = jnp.argmin(per_start, axis=1)
-    chains = (angles0[jnp.arange(angles0.shape[0]), kk // S], shifts0[kk % S], per_start.min(1))
+    # Each initial axis keeps its best orientations (the best shift of each) and refines them on
+    # their own: on the coarse grid the right plane can lose to a wrong one only because its
+    # true shift lies between two steps, so one chain per axis is not enough.
+    n_chains = min(cfg.n_chains, A)
+    per_angle = votes0.reshape(-1, A, S)
+    best_shift = jnp.argmin(per_angle, axis=2)  # (n_starts, A)
+    best_vote = jnp.min(per_angle, axis=2)
+    _, top = jax.lax.top_k(-best_vote, n_chains)  # (n_starts, n_chains)
+    rows = jnp.arange(per_angle.shape[0])[:, None]
+    chains = (
+        angles0[rows, top].reshape(-1),
+        shifts0[best_shift[rows, top]].reshape(-1),
+        best_vote[rows, top].reshape(-1),
+    )
+    chain_start = jnp.repeat(jnp.arange(per_angle.shape[0]), n_chains)
     da = cfg.angle_range / max((A - 1) / 2, 1)
     ds = (cfg.shift_max - cfg.shift_min) * L / max(S - 1, 1)
 
@@ -514,7 +530,7 @@ def _search_view(view: ViewArrays, cfg: SymmetryConfig, gate) -> SymmetryResult:
         r_angles.append(ang)
         r_shifts.append(sh)
         r_votes.append(vo)
-    handicap = jnp.where(jnp.arange(chains[2].shape[0]) > 0, 1.0 + cfg.start_margin, 1.0)
+    handicap = jnp.where(chain_start > 0, 1.0 + cfg.start_margin, 1.0)
     win = jnp.argmin(chains[2] * handicap)
     best_a, best_s, best_vote = chains[0][win], chains[1][win], chains[2][win]
     r_angles = [a[win] for a in r_angles]
@@ -543,7 +559,7 @@ def _search_view(view: ViewArrays, cfg: SymmetryConfig, gate) -> SymmetryResult:
         vote_outside=out0.reshape(-1, A, S),
         vote_inside=in0.reshape(-1, A, S),
         best_index=jnp.stack([ks, ia, js]).astype(jnp.int32),
-        best_start=win.astype(jnp.int32),
+        best_start=chain_start[win].astype(jnp.int32),
         refine_angles=jnp.stack(r_angles) if R else jnp.full((1, A), jnp.nan),
         refine_shifts=jnp.stack(r_shifts) if R else jnp.full((1, S), jnp.nan),
         refine_votes=jnp.stack(r_votes) if R else jnp.full((1, A, S), jnp.nan),
