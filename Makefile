@@ -8,7 +8,7 @@ export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS ?= 0.5
 export MPLBACKEND ?= Agg
 export PYTHONUNBUFFERED ?= 1
 
-.PHONY: demo test lint bench clean venv
+.PHONY: demo quick-demo test lint bench clean venv
 
 venv: $(STAMP)
 
@@ -20,6 +20,9 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: venv
+	$(PY) scripts/eval_dataset.py
+
+quick-demo: venv
 	$(PY) scripts/demo.py
 
 test: venv
