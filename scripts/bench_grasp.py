@@ -1,0 +1,175 @@
+"""Benchmark of PlanGrasp rollouts (issue 8): candidates per second, MJX against C MuJoCo.
+
+For SDH and Barrett on a coacd-decomposed mug (a hollow cylinder: 8 convex hulls), batches of
+64, 512 and 4,096 candidates are rolled out with ``backend="mujoco"`` (C MuJoCo,
+``mujoco.rollout`` on every core) and ``backend="mjx"`` (MuJoCo XLA, ``impl="jax"``: the
+pure-JAX implementation, the one that runs on CPU and on any GPU; MJX-Warp needs an NVIDIA GPU
+and the ``warp`` package). Compilation is timed apart from the rollouts: C MuJoCo's first call
+compiles the small JAX control-schedule and label kernels; MJX's first chunk compiles the whole
+rollout. Both backends see the same candidates in the same run, so every MJX row also reports
+its success-label agreement with C MuJoCo and the count of diverged (NaN) rollouts.
+
+On a CPU-only machine MJX runs only the batch sizes in ``--mjx-sizes`` (default 64): at about
+2,000 env-steps/s a 4,096 batch would take most of an hour. A ``paper_budget`` row times 100
+candidates end to end with the default backend (scene build and compilation included): the
+paper's budget is a minute.
+
+One JSON line per case on stdout; all rows go to ``bench/results/grasp.json`` (atomically).
+
+Usage: ``python scripts/bench_grasp.py [--sizes 64 512 4096] [--mjx-sizes 64] [--hands sdh
+barrett] [--out bench/results/grasp.json]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+import jax
+import numpy as np
+import trimesh
+
+from symjax import grasp, hands
+from symjax._atomic import atomic_write_json
+from symjax.decompose import DecomposeConfig, decompose
+from symjax.grasp.config import CandidateConfig
+from symjax.grasp.sim_config import SimulationConfig
+from symjax.table import TablePlane
+
+# symjax.grasp.simulate is also the function's name; this is the module.
+sim = importlib.import_module("symjax.grasp.simulate")
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def mug() -> tuple[np.ndarray, np.ndarray]:
+    m = trimesh.creation.annulus(0.03, 0.045, 0.1, sections=24)
+    m.apply_translation([0.5, 0.0, 0.05])
+    return np.asarray(m.vertices), np.asarray(m.faces)
+
+
+def pool(v, f, hand, n: int) -> grasp.Candidates:
+    """n candidates: all three generators' outputs, tiled in a fixed shuffled order."""
+    cfg = CandidateConfig(n_approach=10, n_rays=512, n_rolls=4)
+    table = TablePlane.horizontal(0.0)
+    parts = [grasp.generate(m, v, f, config=cfg, table=table, hand=hand).candidates
+             for m in grasp.METHODS]  # fmt: skip
+    allc = jax.tree_util.tree_map(lambda *xs: np.concatenate(xs), *parts)
+    idx = np.random.default_rng(0).permutation(len(allc))
+    idx = np.resize(idx, n)
+    return jax.tree_util.tree_map(lambda x: np.asarray(x)[idx], allc)
+
+
+def _take(c, n):
+    return jax.tree_util.tree_map(lambda x: x[:n], c)
+
+
+def bench_mujoco(scene, cands, hand, n_steps):
+    t0 = time.perf_counter()
+    sim.simulate(None, _take(cands, 8), hand, backend="mujoco", scene=scene)
+    warm = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    out = sim.simulate(None, cands, hand, backend="mujoco", scene=scene).numpy()
+    run = time.perf_counter() - t0
+    return out, {"compile_s": warm, "run_s": run}
+
+
+def bench_mjx(scene, cands, hand):
+    chunk = scene.config.chunk_size
+    first = _take(cands, min(len(cands), chunk))
+    t0 = time.perf_counter()
+    sim.simulate(None, first, hand, backend="mjx", scene=scene)
+    first_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    out = sim.simulate(None, cands, hand, backend="mjx", scene=scene).numpy()
+    run = time.perf_counter() - t0
+    n_chunks = -(-len(cands) // chunk)
+    return out, {"compile_s": max(first_s - run / n_chunks, 0.0), "run_s": run}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 512, 4096])
+    ap.add_argument("--mjx-sizes", type=int, nargs="*", default=None,
+                    help="MJX batch sizes (default: all on a GPU, 64 on a CPU)")  # fmt: skip
+    ap.add_argument("--hands", nargs="+", default=["sdh", "barrett"])
+    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / "grasp.json"))
+    args = ap.parse_args()
+    gpu = jax.default_backend() == "gpu"
+    mjx_sizes = args.mjx_sizes if args.mjx_sizes is not None else (args.sizes if gpu else [64])
+    meta = {
+        "machine": platform.machine(),
+        "cpus": os.cpu_count(),
+        "jax_backend": jax.default_backend(),
+        "device": str(jax.devices()[0]),
+        "mjx_impl": "jax",
+    }
+    v, f = mug()
+    t0 = time.perf_counter()
+    hulls = decompose(v, f, DecomposeConfig(max_hulls=8, max_vertices=32))
+    decompose_s = time.perf_counter() - t0
+    rows = []
+
+    def emit(row):
+        row = {**row, **meta}
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+        atomic_write_json(args.out, rows)
+
+    for hand_name in args.hands:
+        hand = hands.load(hand_name)
+        # Paper budget: 100 candidates, end to end, default backend, nothing warmed up.
+        t0 = time.perf_counter()
+        cfg100 = SimulationConfig(chunk_size=128)
+        scene100 = sim.build_scene(hulls, hand, cfg100)
+        c100 = pool(v, f, hand, 100)
+        out = sim.simulate(None, c100, hand, scene=scene100).numpy()
+        emit({
+            "case": "paper_budget", "hand": hand_name, "backend": out.backend, "n": 100,
+            "seconds_total": time.perf_counter() - t0, "under_a_minute":
+            time.perf_counter() - t0 < 60.0, "success_rate": float(out.success.mean()),
+            "diverged": int(out.diverged.sum()), "n_hulls": len(hulls.hulls),
+            "decompose_s": decompose_s,
+        })  # fmt: skip
+        for n in args.sizes:
+            cfg = SimulationConfig(chunk_size=min(n, 512))
+            scene = sim.build_scene(hulls, hand, cfg)
+            cands = pool(v, f, hand, n)
+            steps = cfg.n_steps
+            ref, t = bench_mujoco(scene, cands, hand, steps)
+            emit({
+                "case": "rollout", "hand": hand_name, "backend": "mujoco", "n": n,
+                "compile_s": t["compile_s"], "run_s": t["run_s"],
+                "candidates_per_s": n / t["run_s"], "env_steps_per_s": n * steps / t["run_s"],
+                "steps_per_rollout": steps, "threads": os.cpu_count(),
+                "success_rate": float(ref.success.mean()),
+                "force_closure_rate": float(ref.force_closure.mean()),
+                "diverged": int(ref.diverged.sum()),
+                "nan_in_outputs": bool(any(np.isnan(np.asarray(x, float)).any()
+                                           for x in jax.tree_util.tree_leaves(ref))),
+            })  # fmt: skip
+            if n not in mjx_sizes:
+                continue
+            out, t = bench_mjx(scene, cands, hand)
+            emit({
+                "case": "rollout", "hand": hand_name, "backend": "mjx", "n": n,
+                "chunk": cfg.chunk_size, "compile_s": t["compile_s"], "run_s": t["run_s"],
+                "candidates_per_s": n / t["run_s"], "env_steps_per_s": n * steps / t["run_s"],
+                "steps_per_rollout": steps, "success_rate": float(out.success.mean()),
+                "force_closure_rate": float(out.force_closure.mean()),
+                "diverged": int(out.diverged.sum()),
+                "nan_in_outputs": bool(any(np.isnan(np.asarray(x, float)).any()
+                                           for x in jax.tree_util.tree_leaves(out))),
+                "success_agreement_with_mujoco": float((out.success == ref.success).mean()),
+                "closure_agreement_with_mujoco":
+                    float((out.force_closure == ref.force_closure).mean()),
+            })  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,134 @@
+"""``PlanGrasp`` (paper Algorithm 1, Section IV-A): candidates, rollouts, ranking."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Any
+
+import jax
+import numpy as np
+
+from symjax.errors import EmptyInputError
+from symjax.grasp.candidates import Candidates, CandidateSet, generate
+from symjax.grasp.config import CandidateConfig
+from symjax.grasp.outcomes import GraspOutcomes
+from symjax.grasp.sim_config import SimulationConfig
+from symjax.grasp.simulate import build_scene, default_backend, simulate
+
+__all__ = ["GraspPlan", "plan", "rank"]
+
+
+@dataclasses.dataclass(frozen=True)
+class GraspPlan:
+    """Output of :func:`plan`: the candidates, best first, with their outcomes.
+
+    Attributes:
+        candidates: Ranked candidates (a :class:`Candidates` batch).
+        outcomes: Their :class:`GraspOutcomes`, same order.
+        order: Index of each ranked candidate in the generator's output, shape (N,).
+        candidate_set: The generator's output (counts of dropped candidates).
+        backend: Simulation backend used.
+        seconds: ``{"candidates", "scene", "simulate"}`` wall times.
+    """
+
+    candidates: Candidates
+    outcomes: GraspOutcomes
+    order: np.ndarray
+    candidate_set: CandidateSet
+    backend: str
+    seconds: dict[str, float]
+
+    def __len__(self) -> int:
+        return len(self.order)
+
+    @property
+    def best(self) -> int:
+        """Index (in the generator's output) of the best candidate."""
+        return int(self.order[0])
+
+
+def rank(outcomes: GraspOutcomes) -> np.ndarray:
+    """Candidate order, best first: success, then force closure, epsilon, fingers in contact.
+
+    Ties keep the generator's order (stable sort).
+    """
+    o = outcomes.numpy()
+    keys = (
+        -np.asarray(o.n_fingers, float),
+        -np.asarray(o.epsilon, float),
+        -np.asarray(o.force_closure, float),
+        -np.asarray(o.success, float),
+    )
+    return np.lexsort(keys)
+
+
+def plan(
+    obj: tuple[Any, Any],
+    hand: Any,
+    method: str = "uji",
+    *,
+    hulls: Any = None,
+    table: Any = None,
+    candidate_config: CandidateConfig | None = None,
+    sim_config: SimulationConfig | None = None,
+    backend: str | None = None,
+    grasp_points: Any = None,
+    seed: int = 0,
+) -> GraspPlan:
+    """Generates grasp candidates for an object, rolls them all out, and ranks them.
+
+    Args:
+        obj: The object's closed mesh ``(vertices (V, 3), faces (F, 3))``, world frame, metres
+            (completed by symmetry, or ground truth).
+        hand: A :class:`symjax.hands.Hand`.
+        method: Candidate generator (``"openrave"``, ``"kth"``, ``"uji"``).
+        hulls: Convex hulls to simulate (a :class:`symjax.decompose.Decomposition` or a list
+            of ``(vertices, faces)``); default: coacd decomposition of ``obj`` (cached).
+        table: A horizontal :class:`symjax.table.TablePlane` or a height; default: the mesh's
+            lowest point.
+        candidate_config: :class:`CandidateConfig` for the generator.
+        sim_config: :class:`SimulationConfig`.
+        backend: ``"mjx"``, ``"mujoco"`` or None (by device).
+        grasp_points: ``"kth"`` grasp points, shape (2, 3).
+        seed: Seed of the ``"openrave"`` sampling.
+
+    Returns:
+        A :class:`GraspPlan`.
+
+    Raises:
+        EmptyInputError: Every candidate was dropped before simulation.
+    """
+    from symjax.table import TablePlane
+
+    v, f = np.asarray(obj[0], float), np.asarray(obj[1])
+    t0 = time.perf_counter()
+    if table is None:
+        table = float(v[:, 2].min()) if v.ndim == 2 and len(v) else 0.0
+    plane = TablePlane.horizontal(float(table)) if isinstance(table, (int, float)) else table
+    cs = generate(
+        method, v, f, config=candidate_config, table=plane, hand=hand,
+        grasp_points=grasp_points, seed=seed,
+    )  # fmt: skip
+    t1 = time.perf_counter()
+    if len(cs) == 0:
+        raise EmptyInputError(f"every {method} candidate was dropped ({cs.n_generated} made)")
+    if hulls is None:
+        from symjax.decompose import decompose
+
+        hulls = decompose(v, f)
+    scene = build_scene(hulls, hand, sim_config, table=plane)
+    t2 = time.perf_counter()
+    backend = default_backend() if backend is None else backend
+    out = simulate(None, cs.candidates, hand, backend=backend, scene=scene)
+    t3 = time.perf_counter()
+    order = rank(out)
+    ranked = jax.tree_util.tree_map(lambda x: np.asarray(x)[order], cs.candidates)
+    return GraspPlan(
+        candidates=ranked,
+        outcomes=out.take(order),
+        order=order,
+        candidate_set=cs,
+        backend=backend,
+        seconds={"candidates": t1 - t0, "scene": t2 - t1, "simulate": t3 - t2},
+    )
