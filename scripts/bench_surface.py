@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import json
 import platform
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -39,6 +38,7 @@ import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 
 from symjax._atomic import atomic_write_json  # noqa: E402
+from symjax._timing import median_time  # noqa: E402
 from symjax.datasets.primitives import primitive_view  # noqa: E402
 from symjax.metrics import mesh_deviation  # noqa: E402
 from symjax.surface import (  # noqa: E402
@@ -54,16 +54,6 @@ from symjax.surface.poisson import _poisson_batch_jit, _poisson_jit  # noqa: E40
 from symjax.symmetry import reflect  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _time(fn, repeats: int) -> float:
-    """Median wall time (s) of ``fn()`` (which must block until its result is ready)."""
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def _ground_truth(kind: str, yaw: float) -> trimesh.Trimesh:
@@ -135,7 +125,7 @@ def _emit(rows: list, row: dict) -> None:
 
 def bench_normals(rows, res, camera, n_points, repeats, o3d) -> None:
     cfg = NormalsConfig()
-    t = _time(lambda: oriented_completion(res, camera, cfg), repeats)
+    t = median_time(lambda: oriented_completion(res, camera, cfg), repeats)
     row = {"case": f"normals_{n_points}", "n_points": n_points, "run_s": t}
     if o3d is not None:
         pts = np.asarray(res.completed_points)
@@ -146,7 +136,7 @@ def bench_normals(rows, res, camera, n_points, repeats, o3d) -> None:
             pcd.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(knn=10))
             pcd.orient_normals_towards_camera_location(np.asarray(camera.position, np.float64))
 
-        row["open3d_s"] = _time(ref, repeats)
+        row["open3d_s"] = median_time(ref, repeats)
         row["ratio_open3d_over_symjax"] = row["open3d_s"] / t
     _emit(rows, row)
 
@@ -159,11 +149,13 @@ def bench_poisson(rows, op, gt, depth, n_points, repeats, o3d) -> None:
     compiled = _poisson_jit.lower(*args, cfg).compile()
     compile_s = time.perf_counter() - t0
     grid = jax.block_until_ready(compiled(*args))
-    solve_s = _time(lambda: jax.block_until_ready(compiled(*args)), repeats)
+    solve_s = median_time(lambda: jax.block_until_ready(compiled(*args)), repeats)
     grid = jax.device_get(grid)
-    mc_s = _time(lambda: grid_to_mesh(grid, cfg), repeats)
+    mc_s = median_time(lambda: grid_to_mesh(grid, cfg), repeats)
     poisson_reconstruct(op.points, op.normals, op.weights, cfg)  # warm the jit cache
-    total_s = _time(lambda: poisson_reconstruct(op.points, op.normals, op.weights, cfg), repeats)
+    total_s = median_time(
+        lambda: poisson_reconstruct(op.points, op.normals, op.weights, cfg), repeats
+    )
     mesh = poisson_reconstruct(op.points, op.normals, op.weights, cfg)
     row = {
         "case": f"poisson_d{depth}_{n_points}",
@@ -180,7 +172,7 @@ def bench_poisson(rows, op, gt, depth, n_points, repeats, o3d) -> None:
     }
     if o3d is not None:
         ref = _o3d_poisson(o3d, op, depth)
-        row["open3d_s"] = _time(lambda: _o3d_poisson(o3d, op, depth), repeats)
+        row["open3d_s"] = median_time(lambda: _o3d_poisson(o3d, op, depth), repeats)
         row["ratio_open3d_over_symjax"] = row["open3d_s"] / total_s
         row["open3d_watertight"] = bool(ref.is_watertight)
         row["dev_open3d_to_symjax_mm"] = mesh_deviation(ref, mesh, n_samples=10000).mean * 1e3
@@ -214,9 +206,9 @@ def bench_closed(rows, name: str, depth: int, n_points: int, repeats: int, o3d) 
     op, gt = _closed_object(name, n_points)
     cfg = PoissonConfig(depth=depth)
     mesh = poisson_reconstruct(op.points, op.normals, op.weights, cfg)
-    t = _time(lambda: poisson_reconstruct(op.points, op.normals, op.weights, cfg), repeats)
+    t = median_time(lambda: poisson_reconstruct(op.points, op.normals, op.weights, cfg), repeats)
     ref = _o3d_poisson(o3d, op, depth)
-    t_ref = _time(lambda: _o3d_poisson(o3d, op, depth), repeats)
+    t_ref = median_time(lambda: _o3d_poisson(o3d, op, depth), repeats)
     _emit(
         rows,
         {
@@ -246,7 +238,7 @@ def bench_batch(rows, ops, depth, repeats) -> None:
     _poisson_batch_jit.lower(*args, cfg, chunk).compile()
     compile_s = time.perf_counter() - t0
     grids = jax.block_until_ready(poisson_grids(*args, cfg))
-    solve_s = _time(lambda: jax.block_until_ready(poisson_grids(*args, cfg)), repeats)
+    solve_s = median_time(lambda: jax.block_until_ready(poisson_grids(*args, cfg)), repeats)
     grids = jax.device_get(grids)
     t0 = time.perf_counter()
     meshes = [grid_to_mesh(grids[i], cfg) for i in range(len(ops))]

@@ -23,7 +23,6 @@ import json
 import math
 import os
 import platform
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -36,6 +35,7 @@ jax.config.update("jax_enable_compilation_cache", False)
 import numpy as np  # noqa: E402
 
 from symjax._atomic import atomic_write_json  # noqa: E402
+from symjax._timing import median_time  # noqa: E402
 from symjax.datasets.primitives import K_DEFAULT, plane_error, primitive_view  # noqa: E402
 from symjax.observation import Observation, point_bucket  # noqa: E402
 from symjax.symmetry import SymmetryConfig, prepare_view, search, search_batch  # noqa: E402
@@ -44,16 +44,6 @@ from symjax.symmetry.search import _search_batch_jit, _search_jit  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = SymmetryConfig(init="eigen", n_refine=0)
-
-
-def _time(fn, repeats: int) -> float:
-    """Median wall time (s) of ``fn()`` (which must block until its result is ready)."""
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def _subsample(obs: Observation, n: int, seed: int = 0) -> Observation:
@@ -95,8 +85,8 @@ def case_single(name: str, obs: Observation, cfg: SymmetryConfig, repeats: int, 
     compiled = _search_jit.lower(view, cfg).compile()
     compile_s = time.perf_counter() - t0
     jax.block_until_ready(compiled(view))
-    run_s = _time(lambda: jax.block_until_ready(compiled(view)), repeats)
-    e2e_s = _time(lambda: jax.block_until_ready(search(obs, cfg)), max(3, repeats // 4))
+    run_s = median_time(lambda: jax.block_until_ready(compiled(view)), repeats)
+    e2e_s = median_time(lambda: jax.block_until_ready(search(obs, cfg)), max(3, repeats // 4))
     res = search(obs, cfg)
     n_hyp = cfg.n_hypotheses
     n_level0 = int(np.size(res.votes))
@@ -134,9 +124,9 @@ def case_batch(name: str, views: list, cfg: SymmetryConfig, repeats: int) -> dic
     compiled = _search_batch_jit.lower(stacked, cfg, chunk).compile()
     compile_s = time.perf_counter() - t0
     jax.block_until_ready(compiled(stacked))
-    run_s = _time(lambda: jax.block_until_ready(compiled(stacked)), repeats)
+    run_s = median_time(lambda: jax.block_until_ready(compiled(stacked)), repeats)
     res = jax.block_until_ready(search_batch(obs, cfg))
-    e2e_s = _time(lambda: jax.block_until_ready(search_batch(obs, cfg)), repeats)
+    e2e_s = median_time(lambda: jax.block_until_ready(search_batch(obs, cfg)), repeats)
     n_hyp = cfg.n_hypotheses
     pts = sum(o.n_valid for o in obs)
     ref_s, rels = 0.0, []

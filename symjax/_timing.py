@@ -1,0 +1,21 @@
+"""Wall-clock timing shared by the benchmark scripts."""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["median_time"]
+
+
+def median_time(fn: Callable[[], Any], repeats: int) -> float:
+    """Median wall time (s) of ``fn()`` over ``repeats`` calls; ``fn`` must block until its
+    result is ready (``jax.block_until_ready``), or the time is the dispatch alone."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
