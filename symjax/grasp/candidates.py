@@ -146,16 +146,12 @@ def roll_for_axis(approach, axis):
     return jnp.arctan2(jnp.dot(axis, e2), jnp.dot(axis, e1))
 
 
-def ray_mesh(origin, direction, triangles):
-    """First hit of one ray with a triangle soup (Moller-Trumbore).
-
-    Args:
-        origin: Shape (3,). direction: shape (3,), need not be unit.
-        triangles: Shape (T, 3, 3), vertices of each triangle.
+def _ray_triangles(origin, direction, triangles, t_min: float):
+    """Moller-Trumbore for one ray against every triangle (T, 3, 3).
 
     Returns:
-        ``(t, index)``: ray parameter of the nearest hit with ``t > 0`` (``inf`` if none) and
-        the triangle index (-1 if none).
+        ``(t, hit)``, each (T,): ray parameter and whether the ray hits the triangle at
+        ``t > t_min``.
     """
     v0, v1, v2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
     e1, e2 = v1 - v0, v2 - v0
@@ -168,7 +164,21 @@ def ray_mesh(origin, direction, triangles):
     q = jnp.cross(s, e1)
     v = (q @ direction) * inv
     t = jnp.sum(e2 * q, axis=-1) * inv
-    hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
+    return t, ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
+
+
+def ray_mesh(origin, direction, triangles):
+    """First hit of one ray with a triangle soup (Moller-Trumbore).
+
+    Args:
+        origin: Shape (3,). direction: shape (3,), need not be unit.
+        triangles: Shape (T, 3, 3), vertices of each triangle.
+
+    Returns:
+        ``(t, index)``: ray parameter of the nearest hit with ``t > 0`` (``inf`` if none) and
+        the triangle index (-1 if none).
+    """
+    t, hit = _ray_triangles(origin, direction, triangles, t_min=1e-9)
     t = jnp.where(hit, t, jnp.inf)
     i = jnp.argmin(t)
     return t[i], jnp.where(jnp.isfinite(t[i]), i, -1)
@@ -177,18 +187,8 @@ def ray_mesh(origin, direction, triangles):
 def _crossings(point, triangles):
     # A direction no mesh edge or face is likely to be aligned with.
     d = jnp.array([0.5773503, 0.5773502, 0.5773504]) + jnp.array([1e-3, -2e-3, 3e-3])
-    v0, v1, v2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
-    e1, e2 = v1 - v0, v2 - v0
-    p = jnp.cross(d, e2)
-    det = jnp.sum(e1 * p, axis=-1)
-    ok = jnp.abs(det) > 1e-12
-    inv = jnp.where(ok, 1.0 / jnp.where(ok, det, 1.0), 0.0)
-    s = point - v0
-    u = jnp.sum(s * p, axis=-1) * inv
-    q = jnp.cross(s, e1)
-    v = (q @ d) * inv
-    t = jnp.sum(e2 * q, axis=-1) * inv
-    return jnp.sum(ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0))
+    _, hit = _ray_triangles(point, d, triangles, t_min=0.0)
+    return jnp.sum(hit)
 
 
 @jax.jit
