@@ -9,10 +9,10 @@ compiles the small JAX control-schedule and label kernels; MJX's first chunk com
 rollout. Both backends see the same candidates in the same run, so every MJX row also reports
 its success-label agreement with C MuJoCo and the count of diverged (NaN) rollouts.
 
-On a CPU-only machine MJX runs only the batch sizes in ``--mjx-sizes`` (default 64): at about
-2,000 env-steps/s a 4,096 batch would take most of an hour. A ``paper_budget`` row times 100
-candidates end to end with the default backend (scene build and compilation included): the
-paper's budget is a minute.
+On a CPU-only machine MJX runs only the batch sizes in ``--mjx-sizes`` (default 64): at the
+measured 600-750 env-steps/s (2 cores) a 4,096 batch would take about 1.5 hours. A
+``paper_budget`` row times 100 candidates end to end with the default backend (scene build and
+compilation included): the paper's budget is a minute.
 
 One JSON line per case on stdout; all rows go to ``bench/results/grasp.json`` (atomically).
 
@@ -142,6 +142,7 @@ def main() -> None:
             cands = pool(v, f, hand, n)
             steps = cfg.n_steps
             ref, t = bench_mujoco(scene, cands, hand, steps)
+            ref_rate = n / t["run_s"]
             emit({
                 "case": "rollout", "hand": hand_name, "backend": "mujoco", "n": n,
                 "compile_s": t["compile_s"], "run_s": t["run_s"],
@@ -165,6 +166,7 @@ def main() -> None:
                 "diverged": int(out.diverged.sum()),
                 "nan_in_outputs": bool(any(np.isnan(np.asarray(x, float)).any()
                                            for x in jax.tree_util.tree_leaves(out))),
+                "ratio_to_mujoco": (n / t["run_s"]) / ref_rate,
                 "success_agreement_with_mujoco": float((out.success == ref.success).mean()),
                 "closure_agreement_with_mujoco":
                     float((out.force_closure == ref.force_closure).mean()),

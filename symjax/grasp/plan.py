@@ -9,14 +9,16 @@ from typing import Any
 import jax
 import numpy as np
 
-from symjax.errors import EmptyInputError
+from symjax.errors import EmptyInputError, unknown_name
 from symjax.grasp.candidates import Candidates, CandidateSet, generate
 from symjax.grasp.config import CandidateConfig
 from symjax.grasp.outcomes import GraspOutcomes
 from symjax.grasp.sim_config import SimulationConfig
 from symjax.grasp.simulate import build_scene, default_backend, simulate
 
-__all__ = ["GraspPlan", "plan", "rank"]
+__all__ = ["RANKINGS", "GraspPlan", "plan", "rank"]
+
+RANKINGS = ("success", "quality")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,18 +50,32 @@ class GraspPlan:
         return int(self.order[0])
 
 
-def rank(outcomes: GraspOutcomes) -> np.ndarray:
-    """Candidate order, best first: success, then force closure, epsilon, fingers in contact.
+def rank(outcomes: GraspOutcomes, by: str = "success") -> np.ndarray:
+    """Candidate order, best first.
 
-    Ties keep the generator's order (stable sort).
+    Args:
+        outcomes: The rollouts' :class:`GraspOutcomes`.
+        by: ``"success"``: the lift-and-shake result first, then force closure, epsilon and
+            fingers in contact; ``"quality"``: the paper's static criterion alone (force
+            closure, epsilon, fingers in contact), as a planner without the dynamic test
+            would rank.
+
+    Returns:
+        Indices into ``outcomes``, shape (N,). Ties keep the generator's order (stable sort).
+
+    Raises:
+        UnknownNameError: ``by`` is neither.
     """
+    if by not in RANKINGS:
+        raise unknown_name("ranking", by, RANKINGS)
     o = outcomes.numpy()
-    keys = (
+    keys = [
         -np.asarray(o.n_fingers, float),
         -np.asarray(o.epsilon, float),
         -np.asarray(o.force_closure, float),
-        -np.asarray(o.success, float),
-    )
+    ]
+    if by == "success":
+        keys.append(-np.asarray(o.success, float))
     return np.lexsort(keys)
 
 

@@ -5,7 +5,9 @@ joint (body origin at its centre of mass, welded in place during the approach) a
 a floating base: three world slides driven by force-limited velocity servos and three hinges
 (intrinsic z-y-x Euler angles) held by position servos. Each candidate only differs in its
 initial ``qpos`` and its control sequence, so one model serves the whole batch. The hand's
-bodies are gravity-compensated; the object feels gravity throughout (it rests on the table).
+bodies are gravity-compensated; the object's weight is cancelled by an applied force on its
+free joint until the closure test (``SimulationConfig.gravity_after_closure``), so gravity is
+switched on by the open-loop schedule like every other input.
 
 Every candidate runs the same open-loop phases (:class:`SimulationConfig`): the hand moves
 along its approach vector until the velocity servo stalls against the object or the table
@@ -17,7 +19,9 @@ the palm. Because the controls never depend on the state, both backends run iden
 
 * ``"mjx"``: MuJoCo XLA with ``impl="jax"`` (the pure-JAX implementation; MJX-Warp needs an
   NVIDIA GPU and is not installed here). One jitted function: ``vmap`` over candidates,
-  ``lax.scan`` over steps; batches are chunked and padded to ``chunk_size``.
+  ``lax.scan`` over steps; batches are chunked and padded to ``chunk_size``. The contacts MJX
+  allots are capped (``mjx_max_contacts``, ``mjx_max_pairs``): on the SDH and a mug of 8 hulls
+  this made the rollouts 3.1x faster on the CPU with the same success labels.
 * ``"mujoco"``: C MuJoCo through :func:`mujoco.rollout.rollout`, multi-threaded.
 
 ``backend=None`` picks ``"mjx"`` when JAX sees a GPU, else ``"mujoco"``.
@@ -75,6 +79,7 @@ class GraspScene:
         qadr_base: qpos addresses of the slides x, y, z and hinges z, y, x, shape (6,).
         qadr_hand: qpos addresses of the hand joints (``hand.joint_names`` order).
         qadr_object: qpos address of the object's free joint (position then quaternion).
+        dadr_object: dof address of the object's free joint (linear, world frame, first).
         act_slide, act_hinge, act_hand: Actuator indices.
         weld: Index of the object's weld equality.
         geom_finger: Per geom: finger index, ``F`` for the palm, -1 if not the hand, (ngeom,).
@@ -92,6 +97,7 @@ class GraspScene:
     qadr_base: np.ndarray
     qadr_hand: np.ndarray
     qadr_object: int
+    dadr_object: int
     act_slide: np.ndarray
     act_hinge: np.ndarray
     act_hand: np.ndarray
@@ -169,6 +175,16 @@ def build_scene(
     o.iterations = cfg.iterations
     o.ls_iterations = cfg.ls_iterations
     o.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    o.cone = (
+        mujoco.mjtCone.mjCONE_ELLIPTIC
+        if cfg.cone == "elliptic"
+        else mujoco.mjtCone.mjCONE_PYRAMIDAL
+    )
+    o.impratio = cfg.impratio
+    if cfg.mjx_max_contacts is not None:
+        spec.add_numeric(name="max_contact_points", data=[cfg.mjx_max_contacts])
+    if cfg.mjx_max_pairs is not None:
+        spec.add_numeric(name="max_geom_pairs", data=[cfg.mjx_max_pairs])
     o.gravity = [0.0, 0.0, -9.81]
     spec.worldbody.add_geom(
         name="table",
@@ -270,6 +286,7 @@ def build_scene(
         qadr_base=np.array([jid(f"base_{a}") for a in ("x", "y", "z", "rz", "ry", "rx")]),
         qadr_hand=np.array([jid("hand/" + j) for j in hand.joint_names]),
         qadr_object=jid("object"),
+        dadr_object=int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "object")]),
         act_slide=np.array([aid(f"base_v{a}") for a in "xyz"]),
         act_hinge=np.array([aid(f"base_p{a}") for a in ("rz", "ry", "rx")]),
         act_hand=np.array([aid("hand/" + a) for a in hand.actuator_names]),
@@ -372,10 +389,10 @@ def _check(cands: Candidates) -> None:
 
 
 def _control(scene: GraspScene, k, p):
-    """Controls and equality switches at step ``k`` of one candidate (pure JAX).
+    """Controls, applied forces and equality switches at step ``k`` of one candidate (pure JAX).
 
     Returns:
-        ``(ctrl (nu,), eq_active (neq,) bool)``.
+        ``(ctrl (nu,), qfrc_applied (nv,), eq_active (neq,) bool)``.
     """
     cfg = scene.config
     A, C, S, L, K = cfg.phase_steps
@@ -399,7 +416,10 @@ def _control(scene: GraspScene, k, p):
     ctrl = ctrl.at[scene.act_hinge].set(p["euler"])
     ctrl = ctrl.at[scene.act_hand].set(hand_ctrl)
     eq = jnp.ones(scene.model.neq, dtype=bool).at[scene.weld].set(k < A)
-    return ctrl, eq
+    weightless = cfg.gravity_after_closure & (k < A + C + S)
+    lift_force = jnp.where(weightless, scene.mass * -scene.model.opt.gravity[2], 0.0)
+    qfrc = jnp.zeros(scene.model.nv, dtype=ctrl.dtype).at[scene.dadr_object + 2].set(lift_force)
+    return ctrl, qfrc, eq
 
 
 def _snap_steps(cfg: SimulationConfig) -> tuple[int, int, int]:
@@ -518,8 +538,8 @@ def _mjx_runner(scene: GraspScene):
 
         def body(carry, k):
             d, q_app, q_grasp, bad = carry
-            ctrl, eq = _control(scene, k, p)
-            d = mjx.step(mx, d.replace(ctrl=ctrl, eq_active=eq))
+            ctrl, qfrc, eq = _control(scene, k, p)
+            d = mjx.step(mx, d.replace(ctrl=ctrl, qfrc_applied=qfrc, eq_active=eq))
             ok = jnp.all(jnp.isfinite(d.qpos)) & jnp.all(jnp.isfinite(d.qvel))
             bad = bad | ~ok
             q_app = jnp.where(k == i_app, d.qpos, q_app)
@@ -567,8 +587,9 @@ def _schedule_fn(scene: GraspScene):
     n = scene.config.n_steps
 
     def one(p):
-        ctrl, eq = jax.vmap(lambda k: _control(scene, k, p))(jnp.arange(n))
-        return jnp.concatenate([ctrl, eq.astype(ctrl.dtype)], axis=-1)
+        ctrl, qfrc, eq = jax.vmap(lambda k: _control(scene, k, p))(jnp.arange(n))
+        # mjtState bit order: ctrl, qfrc_applied, ..., eq_active.
+        return jnp.concatenate([ctrl, qfrc, eq.astype(ctrl.dtype)], axis=-1)
 
     return jax.jit(jax.vmap(one))
 
@@ -610,7 +631,11 @@ def _run_mujoco(scene: GraspScene, params: dict[str, np.ndarray]) -> GraspOutcom
     datas = [mujoco.MjData(m) for _ in range(nthread)]
     d = datas[0]
     full = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    spec = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_EQ_ACTIVE
+    spec = (
+        mujoco.mjtState.mjSTATE_CTRL
+        | mujoco.mjtState.mjSTATE_QFRC_APPLIED
+        | mujoco.mjtState.mjSTATE_EQ_ACTIVE
+    )
     nstate = mujoco.mj_stateSize(m, full)
     mujoco.mj_resetData(m, d)
     template = np.empty(nstate)
