@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 
 from symjax import hands, robots  # noqa: E402
 from symjax._atomic import atomic_write_bytes  # noqa: E402
-from symjax.hands import ASSETS  # noqa: E402
+from symjax.resources import asset_dir  # noqa: E402
 
 
 def _save(path, rgb: np.ndarray) -> None:
@@ -61,7 +61,7 @@ def render_hand(name: str, size: int) -> None:
             mujoco.mj_step(m, d)
         mujoco.mj_forward(m, d)
         r.update_scene(d, cam)
-        _save(ASSETS / "hands" / name / f"{state}.png", r.render())
+        _save(asset_dir() / "hands" / name / f"{state}.png", r.render())
 
 
 def render_robot(name: str, size: int) -> None:
@@ -75,9 +75,9 @@ def render_robot(name: str, size: int) -> None:
     mujoco.mj_forward(m, d)
     r = mujoco.Renderer(m, size, int(size * 4 / 3))
     r.update_scene(d, _camera([0.4, 0.0, 0.8], 2.6, 120, -20))
-    _save(ASSETS / "robots" / name / "robot.png", r.render())
+    _save(asset_dir() / "robots" / name / "robot.png", r.render())
     r.update_scene(d, rb.camera)
-    _save(ASSETS / "robots" / name / "head_camera.png", r.render())
+    _save(asset_dir() / "robots" / name / "head_camera.png", r.render())
 
 
 def main() -> None:

@@ -72,3 +72,18 @@ class SimulationError(SymjaxError, RuntimeError):
 def unknown_name(kind: str, name: object, valid: list[str] | tuple[str, ...]) -> UnknownNameError:
     """Builds an :class:`UnknownNameError` that lists the valid names."""
     return UnknownNameError(f"unknown {kind} {name!r}; expected one of: {', '.join(sorted(valid))}")
+
+
+def config_or_default(value: object, cls: type, name: str = "config"):
+    """``value`` when it is a ``cls``, ``cls()`` when None, else a :class:`ConfigError`.
+
+    Args:
+        value: What the caller passed.
+        cls: The expected frozen config dataclass.
+        name: The argument's name, for the message.
+    """
+    if value is None:
+        return cls()
+    if not isinstance(value, cls):
+        raise ConfigError(f"{name} must be a {cls.__name__} or None, got {type(value).__name__}")
+    return value

@@ -10,6 +10,7 @@ import numpy as np
 from symjax._pytree import pytree_dataclass
 from symjax.camera import Camera
 from symjax.errors import CameraError, EmptyInputError, InvalidInputError, ShapeError
+from symjax.geometry import bucket
 from symjax.table import TablePlane
 
 __all__ = ["Observation", "MIN_POINTS", "stack_observations"]
@@ -262,26 +263,10 @@ def _check_in_front(points: np.ndarray, camera: Camera) -> None:
         )
 
 
-def point_bucket(n: int, minimum: int = 256) -> int:
-    """Rounds a point count up to one of few sizes so that jitted functions are reused.
-
-    Sizes are ``2^k * {1, 1.25, 1.5, 1.75}``: at most 25% padding (a power of two alone would
-    waste up to half of the work, e.g. 40,000 -> 65,536), while the number of distinct compiled
-    shapes stays logarithmic in the cloud size.
-    """
-    n = max(int(n), minimum)
-    k = int(np.floor(np.log2(n)))
-    for step in (4, 5, 6, 7, 8):
-        size = (step << k) // 4
-        if size >= n:
-            return size
-    raise AssertionError("unreachable")  # step 8 is 2^(k+1) > n
-
-
 def stack_observations(observations: Sequence[Observation], n_points: int | None = None):
     """Stacks views into one batched :class:`Observation` (leading axis = view).
 
-    Points are padded to a common bucketed size (:func:`point_bucket`, or ``n_points``) and
+    Points are padded to a common bucketed size (:func:`symjax.geometry.bucket`, or ``n_points``) and
     images to the largest height and width (padding is outside the mask with no depth).
 
     Returns:
@@ -294,7 +279,7 @@ def stack_observations(observations: Sequence[Observation], n_points: int | None
             raise InvalidInputError(f"item {i} is a {type(o).__name__}, expected an Observation")
         if np.ndim(o.points) != 2:
             raise ShapeError(f"item {i} is already batched (points {np.shape(o.points)})")
-    n = n_points or point_bucket(max(len(np.asarray(o.points)) for o in observations))
+    n = n_points or bucket(max(len(np.asarray(o.points)) for o in observations))
     H = max(o.camera.height for o in observations)
     W = max(o.camera.width for o in observations)
     padded = [o.padded(n) for o in observations]

@@ -17,6 +17,7 @@ from symjax.errors import (
     ShapeError,
     SymjaxError,
 )
+from symjax.execution import ExecutionConfig
 from symjax.metrics import mesh_deviation, surface_distance
 from symjax.surface import (
     DelaunayConfig,
@@ -65,8 +66,8 @@ def meshes(box_data):
         cfg = PoissonConfig(depth=depth)
         for r in (0.05, 0.02):
             p, n = sphere_samples(N_POINTS, r)
-            out["sphere", r, depth] = (sphere_mesh(r), poisson_reconstruct(p, n, cfg=cfg))
-        out["box", depth] = (box, poisson_reconstruct(bp, bn, cfg=cfg))
+            out["sphere", r, depth] = (sphere_mesh(r), poisson_reconstruct(p, n, config=cfg))
+        out["box", depth] = (box, poisson_reconstruct(bp, bn, config=cfg))
     return out
 
 
@@ -98,24 +99,24 @@ def test_poisson_weights_drop_zero_weight_points():
     pts, nrm = np.concatenate([p1, p2]), np.concatenate([n1, n2])
     w = np.concatenate([np.ones(4000), np.zeros(4000)])
     cfg = PoissonConfig(depth=7)
-    mesh = poisson_reconstruct(pts, nrm, w, cfg=cfg)
+    mesh = poisson_reconstruct(pts, nrm, w, config=cfg)
     assert mesh.is_watertight
     assert np.linalg.norm(mesh.centroid - CENTRE) < 1e-3
     assert mesh_deviation(sphere_mesh(0.03), mesh, n_samples=5000).mean < 1e-3
     # Without weights both spheres are meshed; the largest piece is either one.
-    both = poisson_reconstruct(pts, nrm, w, cfg=dataclasses.replace(cfg, use_weights=False))
+    both = poisson_reconstruct(pts, nrm, w, config=dataclasses.replace(cfg, use_weights=False))
     assert both.volume == pytest.approx(4 / 3 * np.pi * 0.03**3, rel=0.05)
 
 
 def test_poisson_batch_matches_single(box_data, strict_ranks):
     _, bp, bn = box_data
     p1, n1 = sphere_samples(3000, 0.05, seed=4)
-    cfg = PoissonConfig(depth=5, chunk_views=2)
+    cfg = PoissonConfig(depth=5)
     views = [(p1, n1, None), (bp[:5000], bn[:5000], np.ones(5000)), (p1 + 0.3, n1, None)]
-    batch = poisson_reconstruct_batch(views, cfg)
+    batch = poisson_reconstruct_batch(views, cfg, ExecutionConfig(poisson_chunk_views=2))
     assert len(batch) == 3
     for (p, n, w), mb in zip(views, batch, strict=True):
-        single = poisson_reconstruct(p, n, w, cfg=cfg)
+        single = poisson_reconstruct(p, n, w, config=cfg)
         assert mb.is_watertight
         np.testing.assert_allclose(mb.bounds, single.bounds, atol=1e-5)
         assert mb.volume == pytest.approx(single.volume, rel=1e-4)
@@ -126,7 +127,7 @@ def test_poisson_open_sheet_still_closed(strict_ranks):
     # A hemisphere only (a partial view): the surface must still come out closed.
     p, n = sphere_samples(4000, 0.05, seed=3)
     keep = n[:, 2] > 0
-    mesh = poisson_reconstruct(p[keep], n[keep], cfg=PoissonConfig(depth=5))
+    mesh = poisson_reconstruct(p[keep], n[keep], config=PoissonConfig(depth=5))
     assert mesh.is_watertight and mesh.volume > 0
 
 
@@ -135,27 +136,27 @@ def test_poisson_degenerate_inputs_raise():
     p, n = sphere_samples(500, 0.05)
     t = np.linspace(0, 1, 100)[:, None]
     with pytest.raises(DegenerateGeometryError):  # collinear
-        poisson_reconstruct(t * np.array([1.0, 2.0, 3.0]), np.tile([0.0, 0, 1], (100, 1)), cfg=cfg)
+        poisson_reconstruct(t * np.array([1.0, 2.0, 3.0]), np.tile([0.0, 0, 1], (100, 1)), config=cfg)
     plane = np.random.default_rng(0).uniform(size=(100, 3)) * np.array([1, 1, 0])
     with pytest.raises(DegenerateGeometryError):  # coplanar
-        poisson_reconstruct(plane, np.tile([0.0, 0, 1], (100, 1)), cfg=cfg)
+        poisson_reconstruct(plane, np.tile([0.0, 0, 1], (100, 1)), config=cfg)
     with pytest.raises(EmptyInputError):
-        poisson_reconstruct(p[:19], n[:19], cfg=cfg)
+        poisson_reconstruct(p[:19], n[:19], config=cfg)
     bad = n.copy()
     bad[7] = np.nan
     with pytest.raises(DegenerateGeometryError):
-        poisson_reconstruct(p, bad, cfg=cfg)
+        poisson_reconstruct(p, bad, config=cfg)
     bad[7] = 0.0
     with pytest.raises(DegenerateGeometryError):
-        poisson_reconstruct(p, bad, cfg=cfg)
+        poisson_reconstruct(p, bad, config=cfg)
     with pytest.raises(ShapeError):
-        poisson_reconstruct(p, n[:, :2], cfg=cfg)
+        poisson_reconstruct(p, n[:, :2], config=cfg)
     with pytest.raises(SymjaxError):
-        poisson_reconstruct(p, n, np.zeros(len(p)), cfg=cfg)
+        poisson_reconstruct(p, n, np.zeros(len(p)), config=cfg)
     with pytest.raises(SymjaxError):
-        poisson_reconstruct(p, n, -np.ones(len(p)), cfg=cfg)
+        poisson_reconstruct(p, n, -np.ones(len(p)), config=cfg)
     with pytest.raises(DegenerateGeometryError, match="inside-out"):
-        poisson_reconstruct(p, -n, cfg=cfg)
+        poisson_reconstruct(p, -n, config=cfg)
 
 
 @pytest.mark.parametrize(
@@ -173,7 +174,7 @@ def test_config_validation_other():
     with pytest.raises(ConfigError):
         DelaunayConfig(n_samples=3)
     with pytest.raises(SymjaxError):
-        poisson_reconstruct(np.zeros((30, 3)), np.zeros((30, 3)), cfg=NormalsConfig())
+        poisson_reconstruct(np.zeros((30, 3)), np.zeros((30, 3)), config=NormalsConfig())
 
 
 # ---------------------------------------------------------------------------------------------
@@ -314,12 +315,12 @@ def _box_truth(yaw: float) -> trimesh.Trimesh:
 
 def test_symmetry_completion_beats_delaunay_baseline():
     from symjax.metrics import centroid_error
-    from symjax.surface import mesh_completion, mesh_completions
     from symjax.symmetry import search, search_batch
 
     obs, _ = _scenes.view("box", 0.5)
     gt = _box_truth(0.5)
-    mirrored = mesh_completion(search(obs), obs.camera, cfg=PoissonConfig(depth=7))
+    op = oriented_completion(search(obs), obs.camera)
+    mirrored = poisson_reconstruct(op.points, op.normals, op.weights, PoissonConfig(depth=7))
     baseline = delaunay_mesh(obs.valid_points(), obs.camera)
     assert mirrored.is_watertight and baseline.is_watertight
     dev_mir = mesh_deviation(gt, mirrored, n_samples=5000).mean
@@ -329,8 +330,8 @@ def test_symmetry_completion_beats_delaunay_baseline():
     assert centroid_error(gt, mirrored) < 0.5 * centroid_error(gt, baseline)
 
     obs2, _ = _scenes.view("cylinder", 0.2, azimuth=1.0)
-    meshes = mesh_completions(
-        search_batch([obs, obs2]), [obs.camera, obs2.camera], cfg=PoissonConfig(depth=5)
-    )
+    results = search_batch([obs, obs2])
+    ops = [oriented_completion(results[i], o.camera) for i, o in enumerate([obs, obs2])]
+    meshes = poisson_reconstruct_batch(ops, PoissonConfig(depth=5))
     assert len(meshes) == 2 and all(m.is_watertight for m in meshes)
     assert mesh_deviation(gt, meshes[0], n_samples=5000).mean < 0.006

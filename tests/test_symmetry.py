@@ -210,12 +210,13 @@ def test_result_contents(views, batch_result):
     assert float(r.vote) <= (1.0 + SymmetryConfig().start_margin) * float(votes.min()) + 1e-6
 
 
-def test_complete_convenience(views):
+def test_complete_returns_a_list_of_clouds(views):
     obs = views[16][2]
-    cloud, res = complete(obs)
+    (cloud,) = complete(obs)
     assert cloud.shape[1] == 3 and len(cloud) > obs.n_valid
-    clouds, batch = complete([views[16][2], views[17][2]])
-    assert len(clouds) == 2 and len(batch) == 2
+    np.testing.assert_allclose(cloud, search(obs).completed_cloud(), atol=1e-5)
+    clouds = complete([views[16][2], views[17][2]])
+    assert isinstance(clouds, list) and len(clouds) == 2
     np.testing.assert_allclose(clouds[0], cloud, atol=1e-5)
 
 

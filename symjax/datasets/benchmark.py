@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from symjax import resources
 from symjax._atomic import atomic_write_bytes, atomic_write_json
 from symjax.camera import Camera
 from symjax.datasets.objects import (
@@ -67,7 +68,6 @@ GENERATOR_VERSION = 1
 ORIENTATIONS_DEG = (0, 45, 90, 135, 180, 225, 270, 315)
 
 #: Environment variable overriding the cache root.
-CACHE_ENV = "SYMJAX_CACHE"
 
 
 @dataclass(frozen=True)
@@ -94,10 +94,8 @@ class BenchmarkConfig:
 
 
 def default_cache_dir() -> Path:
-    """``$SYMJAX_CACHE/benchmark-v<version>`` or ``~/.cache/symjax/benchmark-v<version>``."""
-    root = os.environ.get(CACHE_ENV)
-    base = Path(root).expanduser() if root else Path("~/.cache/symjax").expanduser()
-    return base / f"benchmark-v{GENERATOR_VERSION}"
+    """``$SYMJAX_CACHE/benchmark-v<version>``, else ``~/.cache/symjax/benchmark-v<version>``."""
+    return resources.cache_dir(f"benchmark-v{GENERATOR_VERSION}")
 
 
 def view_names(datasets: Iterable[str] = DATASET_IDS, orientations=ORIENTATIONS_DEG) -> list[str]:

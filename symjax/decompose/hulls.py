@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from symjax import resources
 from symjax._atomic import atomic_write_bytes
 from symjax.decompose.config import DecomposeConfig
 from symjax.errors import DegenerateGeometryError, EmptyInputError, FileFormatError, ShapeError
@@ -49,10 +50,8 @@ class Decomposition:
 
 
 def default_cache_dir() -> Path:
-    """``$SYMJAX_CACHE_DIR/coacd``, else ``~/.cache/symjax/coacd``."""
-    root = os.environ.get("SYMJAX_CACHE_DIR")
-    base = Path(root) if root else Path.home() / ".cache" / "symjax"
-    return base / "coacd"
+    """``$SYMJAX_CACHE/coacd``, else ``~/.cache/symjax/coacd`` (:mod:`symjax.resources`)."""
+    return resources.cache_dir("coacd")
 
 
 def _check_mesh(vertices: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -13,7 +13,6 @@ Every hand follows the same conventions so that grasp candidates are hand-agnost
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -21,10 +20,10 @@ import numpy as np
 
 from symjax._pytree import pytree_dataclass, static_field
 from symjax.errors import FileFormatError, InvalidInputError, MissingFileError, unknown_name
+from symjax.resources import asset_dir
 
-__all__ = ["ASSETS", "HAND_NAMES", "PRESHAPES", "Hand", "load", "probe_points"]
+__all__ = ["HAND_NAMES", "PRESHAPES", "Hand", "load", "probe_points"]
 
-ASSETS = Path(__file__).resolve().parents[2] / "assets"
 PRESHAPES = ("home", "open", "pinch")
 """Pre-shape keyframe names; a candidate's ``preshape`` indexes this tuple."""
 
@@ -179,7 +178,7 @@ def load(name: str) -> Hand:
     if not isinstance(name, str) or name not in _INFO:
         raise unknown_name("hand", name, HAND_NAMES)
     info = _INFO[name]
-    path = ASSETS / "hands" / name / f"{name}.xml"
+    path = asset_dir() / "hands" / name / f"{name}.xml"
     if not path.is_file():
         raise MissingFileError(f"hand model {path} is missing")
     try:

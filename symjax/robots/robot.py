@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from symjax.errors import FileFormatError, MissingFileError, ShapeError, unknown_name
-from symjax.hands.hand import ASSETS
+from symjax.resources import asset_dir
 
 __all__ = ["DH", "ROBOT_NAMES", "Robot", "flange_pose", "load"]
 
@@ -142,7 +142,7 @@ def load(name: str) -> Robot:
     if not isinstance(name, str) or name not in _INFO:
         raise unknown_name("robot", name, ROBOT_NAMES)
     info = _INFO[name]
-    path = ASSETS / "robots" / name / f"{name}.xml"
+    path = asset_dir() / "robots" / name / f"{name}.xml"
     if not path.is_file():
         raise MissingFileError(f"robot model {path} is missing")
     return Robot(

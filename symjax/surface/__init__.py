@@ -1,4 +1,11 @@
-"""Surface reconstruction of completed clouds (paper Section II-B) and the Delaunay baseline."""
+"""Surface reconstruction of completed clouds (paper Section II-B) and the Delaunay baseline.
+
+A completed view is meshed in two calls: :func:`oriented_completion` (outlier filter, normals
+oriented by the mirrored viewpoint) then :func:`poisson_reconstruct` (or
+:func:`poisson_reconstruct_batch` for many views in one jitted solve). Modules: ``config``,
+``normals``, ``poisson`` (entry points), ``poisson_grid`` (the solver), ``isosurface``
+(marching cubes), ``delaunay`` (the paper's baseline).
+"""
 
 from symjax.surface.config import DelaunayConfig, NormalsConfig, PoissonConfig
 from symjax.surface.delaunay import delaunay_mesh
@@ -8,34 +15,17 @@ from symjax.surface.normals import (
     oriented_completion,
     outlier_mask,
 )
-from symjax.surface.poisson import (
-    PoissonGrid,
-    grid_to_mesh,
-    mesh_completion,
-    mesh_completions,
-    pack_views,
-    poisson_grid,
-    poisson_grids,
-    poisson_reconstruct,
-    poisson_reconstruct_batch,
-)
+from symjax.surface.poisson import poisson_reconstruct, poisson_reconstruct_batch
 
 __all__ = [
     "DelaunayConfig",
     "NormalsConfig",
     "OrientedPoints",
     "PoissonConfig",
-    "PoissonGrid",
     "delaunay_mesh",
     "estimate_normals",
-    "grid_to_mesh",
-    "mesh_completion",
-    "mesh_completions",
     "oriented_completion",
     "outlier_mask",
-    "pack_views",
-    "poisson_grid",
-    "poisson_grids",
     "poisson_reconstruct",
     "poisson_reconstruct_batch",
 ]

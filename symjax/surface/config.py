@@ -57,7 +57,6 @@ class PoissonConfig:
             plausibility; the reference code's ``-withPlaus``).
         min_points: Fewer valid points than this raise :class:`~symjax.errors.EmptyInputError`.
         keep_largest: Keep only the largest connected component of the iso-surface.
-        chunk_views: Views solved at once by the batched solver (bounds memory; 0 = all).
     """
 
     depth: int = 7
@@ -67,7 +66,6 @@ class PoissonConfig:
     use_weights: bool = True
     min_points: int = 20
     keep_largest: bool = True
-    chunk_views: int = 8
 
     def __post_init__(self) -> None:
         _require(
@@ -83,10 +81,6 @@ class PoissonConfig:
         _require(
             isinstance(self.min_points, int) and self.min_points >= 4,
             f"min_points must be an int >= 4, got {self.min_points!r}",
-        )
-        _require(
-            isinstance(self.chunk_views, int) and self.chunk_views >= 0,
-            f"chunk_views must be an int >= 0, got {self.chunk_views!r}",
         )
 
     @property

@@ -1,480 +1,112 @@
-"""Poisson surface reconstruction on a regular grid, batched in JAX (paper Section II-B).
+"""Poisson surface reconstruction of oriented points (paper Section II-B): the entry points.
 
-Kazhdan, Bolitho and Hoppe (2006) find the indicator function ``chi`` of the object whose gradient
-best matches the field ``V`` of oriented normals: ``Lap(chi) = div(V)``. symjax solves it on a
-regular grid of ``2**depth`` cells per axis (the finest level of the paper's octree of that depth)
-spanning the cubic bounding box of the points enlarged by ``padding``:
-
-1. each sample's area is estimated as the inverse of the smoothed sample density, so that dense
-   and sparse parts of a view contribute by surface area, not by point count;
-2. area x weight x normal is splatted trilinearly into ``V``, stored on a staggered grid (each
-   component on the cell faces across its axis) so that its divergence lands on the nodes;
-3. the 7-point discrete Poisson equation is solved exactly by one FFT pair: the indicator of an
-   object inside the padded box is constant near the box faces, so the periodic solution is the
-   free-space one up to a constant; Kazhdan's smoothing of ``V`` (a Gaussian here) is a product
-   in the same spectral step;
-4. the iso-value is the weighted mean of ``chi`` at the samples (Kazhdan's choice).
-
-Steps 1-4 are one JAX kernel per view, vmapped over a padded batch; marching cubes
-(scikit-image) then runs on the host, the grid surrounded by one layer of "outside" so that the
-surface is always closed, and the largest connected component is kept.
+One call for a view, one for a batch; both pad the points to a size bucket
+(:func:`symjax.geometry.bucket`) so that the jitted solver compiles once per bucket, not once
+per cloud. The solver is :mod:`symjax.surface.poisson_grid`, the mesh extraction
+:mod:`symjax.surface.isosurface`.
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Literal
 
 import jax
-import jax.numpy as jnp
-import numpy as np
 
-from symjax._pytree import pytree_dataclass
-from symjax.errors import (
-    DegenerateGeometryError,
-    InvalidInputError,
-    ShapeError,
-)
+from symjax.errors import InvalidInputError, SymjaxError, config_or_default
+from symjax.execution import ExecutionConfig
+from symjax.geometry import bucket
 from symjax.surface.config import PoissonConfig
-from symjax.surface.normals import _as_points, check_not_degenerate, oriented_completion
+from symjax.surface.isosurface import grid_to_mesh
+from symjax.surface.normals import OrientedPoints
+from symjax.surface.poisson_grid import pack_views, solve_grid, solve_grids
 
-__all__ = [
-    "PoissonGrid",
-    "grid_to_mesh",
-    "mesh_completion",
-    "mesh_completions",
-    "pack_views",
-    "poisson_grid",
-    "poisson_grids",
-    "poisson_reconstruct",
-    "poisson_reconstruct_batch",
-]
+__all__ = ["poisson_reconstruct", "poisson_reconstruct_batch"]
 
 
-@pytree_dataclass
-class PoissonGrid:
-    """The solved indicator function of one view (or a batch, with a leading view axis).
-
-    Attributes:
-        chi: (R, R, R) indicator function at the grid nodes, ``R = 2**depth``; larger inside.
-        iso: () iso-value of the surface.
-        origin: (3,) world position of node (0, 0, 0), metres.
-        cell: () grid spacing, metres.
-    """
-
-    chi: Any
-    iso: Any
-    origin: Any
-    cell: Any
-
-    def __getitem__(self, i) -> PoissonGrid:
-        """The grid of view ``i`` of a batch."""
-        return jax.tree_util.tree_map(lambda x: x[i], self)
-
-
-# ---------------------------------------------------------------------------------------------
-# JAX kernel (one view)
-
-_CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=np.int32)
-
-
-def _trilinear(g, res: int):
-    """Corner indices (N, 8, 3) and weights (N, 8) of continuous grid coordinates g (N, 3)."""
-    base = jnp.floor(g)
-    f = g - base
-    idx = (base.astype(jnp.int32)[:, None, :] + _CORNERS[None, :, :]) % res
-    c = jnp.asarray(_CORNERS, dtype=g.dtype)
-    w = jnp.prod(jnp.where(c[None] > 0, f[:, None, :], 1.0 - f[:, None, :]), axis=-1)
-    return idx, w
-
-
-def _splat(g, values, res: int):
-    """Scatter-adds values (N,) at grid coordinates g (N, 3) trilinearly into a (R, R, R) grid."""
-    idx, w = _trilinear(g, res)
-    flat = (idx[..., 0] * res + idx[..., 1]) * res + idx[..., 2]
-    grid = (
-        jnp.zeros((res**3,), values.dtype)
-        .at[flat.reshape(-1)]
-        .add((w * values[:, None]).reshape(-1))
-    )
-    return grid.reshape(res, res, res)
-
-
-def _gather(idx, w, grid):
-    """Trilinear interpolation (N,) of a (R, R, R) grid."""
-    return jnp.sum(w * grid[idx[..., 0], idx[..., 1], idx[..., 2]], axis=-1)
-
-
-def _frequencies(res: int):
-    """Angular frequencies per cell k h (radians) of the rfftn layout, broadcastable to
-    (R, R, R//2+1)."""
-    k = 2 * np.pi * np.fft.fftfreq(res)
-    kr = 2 * np.pi * np.fft.rfftfreq(res)
-    return k[:, None, None], k[None, :, None], kr[None, None, :]
-
-
-def _smoothed(x, sigma_cells: float):
-    """Spectrum of x (R, R, R) times a Gaussian of standard deviation ``sigma_cells``."""
-    kx, ky, kz = _frequencies(x.shape[0])
-    gauss = np.exp(-0.5 * sigma_cells**2 * (kx**2 + ky**2 + kz**2)).astype(np.float32)
-    return jnp.fft.rfftn(x) * gauss
-
-
-def _poisson_view(points, normals, weights, valid, cfg: PoissonConfig) -> PoissonGrid:
-    """Indicator function of one view. points/normals (N, 3), weights/valid (N,)."""
-    res = cfg.resolution
-    dtype = points.dtype
-    big = jnp.asarray(jnp.finfo(dtype).max, dtype)
-    lo = jnp.min(jnp.where(valid[:, None], points, big), axis=0)
-    hi = jnp.max(jnp.where(valid[:, None], points, -big), axis=0)
-    side = jnp.max(hi - lo) * cfg.padding
-    cell = side / res
-    # Node i sits at origin + i * cell; the points are centred in the box.
-    origin = 0.5 * (lo + hi) - 0.5 * (res - 1) * cell
-    g = (points - origin[None, :]) / cell
-    g = jnp.where(valid[:, None], g, 0.5 * res)
-    vmask = valid.astype(dtype)
-
-    # Sample density (samples per cell, smoothed) on a grid half as fine, which is plenty for a
-    # kernel of 1.5 cells and 8x cheaper: its inverse is each sample's share of the surface area.
-    res_d = max(res // 2, 4)
-    scale_d = res_d / res
-    g_d = g * scale_d
-    dens = jnp.fft.irfftn(
-        _smoothed(_splat(g_d, vmask, res_d), cfg.density_smoothing * scale_d),
-        s=(res_d, res_d, res_d),
-    )
-    idx_d, w_d = _trilinear(g_d, res_d)
-    area = vmask / jnp.maximum(_gather(idx_d, w_d, dens), 1e-3)
-    ws = weights * vmask if cfg.use_weights else vmask
-    ws = jnp.maximum(ws, 0.0)
-
-    # Staggered (MAC) layout: component c lives on the faces i + 1/2 along axis c, so that the
-    # backward-difference divergence sits on the nodes and the 7-point Laplacian is its exact
-    # partner (no half-cell shift, no checkerboard mode).
-    div = jnp.zeros((res, res, res), dtype)
-    for c in range(3):
-        face = _splat(g - 0.5 * jnp.eye(3, dtype=dtype)[c][None, :], area * ws * normals[:, c], res)
-        div = div + face - jnp.roll(face, 1, axis=c)
-    kx, ky, kz = _frequencies(res)
-    lap = (4 * (np.sin(kx / 2) ** 2 + np.sin(ky / 2) ** 2 + np.sin(kz / 2) ** 2)).astype(np.float32)
-    lap[0, 0, 0] = 1.0
-    # Lap chi = -div(n) with outward normals: chi is the inside indicator (larger inside).
-    chi_hat = _smoothed(div, cfg.smoothing) / lap
-    chi_hat = chi_hat.at[0, 0, 0].set(0.0)
-    chi = jnp.fft.irfftn(chi_hat, s=(res, res, res))
-
-    idx, w = _trilinear(g, res)
-    c_at = _gather(idx, w, chi)
-    wsum = jnp.sum(ws)
-    iso = jnp.sum(ws * c_at) / jnp.where(wsum > 0, wsum, 1.0)
-    return PoissonGrid(chi=chi.astype(dtype), iso=iso, origin=origin, cell=cell)
-
-
-@functools.partial(jax.jit, static_argnums=(4,))
-def _poisson_jit(points, normals, weights, valid, cfg: PoissonConfig) -> PoissonGrid:
-    return _poisson_view(points, normals, weights, valid, cfg)
-
-
-@functools.partial(jax.jit, static_argnums=(4, 5))
-def _poisson_batch_jit(points, normals, weights, valid, cfg: PoissonConfig, chunk: int):
-    # lax.map over chunks of vmapped views: one call for the batch, memory bounded by the chunk.
-    def one_chunk(args):
-        return jax.vmap(_poisson_view, in_axes=(0, 0, 0, 0, None))(*args, cfg)
-
-    b = points.shape[0]
-    n_chunks = b // chunk
-    args = (points, normals, weights, valid)
-    chunked = jax.tree_util.tree_map(lambda x: x.reshape((n_chunks, chunk) + x.shape[1:]), args)
-    out = jax.lax.map(one_chunk, chunked)
-    return jax.tree_util.tree_map(lambda x: x.reshape((b,) + x.shape[2:]), out)
-
-
-# ---------------------------------------------------------------------------------------------
-# Host side: validation, packing, marching cubes
-
-
-def _check_cfg(cfg) -> PoissonConfig:
-    if cfg is None:
-        return PoissonConfig()
-    if not isinstance(cfg, PoissonConfig):
-        raise InvalidInputError(f"cfg must be a PoissonConfig, got {type(cfg).__name__}")
-    return cfg
-
-
-def _check_view(points, normals, weights, cfg: PoissonConfig, i: int | None = None):
-    what = "points" if i is None else f"points of view {i}"
-    p = _as_points(points, what)
-    n = np.asarray(normals, dtype=np.float64)
-    if n.shape != p.shape:
-        raise ShapeError(f"normals must have the shape of the points {p.shape}, got {n.shape}")
-    if not np.all(np.isfinite(n)):
-        raise DegenerateGeometryError("normals contain NaN or inf; expected finite unit normals")
-    norm = np.linalg.norm(n, axis=1)
-    if np.any(norm < 1e-6):
-        raise DegenerateGeometryError(
-            f"{int(np.sum(norm < 1e-6))} normals have zero length; expected unit normals"
-        )
-    n = n / norm[:, None]
-    if weights is None:
-        w = np.ones(p.shape[0])
-    else:
-        w = np.asarray(weights, dtype=np.float64)
-        if w.shape != (p.shape[0],):
-            raise ShapeError(f"weights must have shape ({p.shape[0]},), got {w.shape}")
-        if not np.all(np.isfinite(w)) or np.any(w < 0):
-            raise InvalidInputError("weights must be finite and >= 0")
-        if cfg.use_weights and np.sum(w > 0) < cfg.min_points:
-            raise DegenerateGeometryError(
-                f"only {int(np.sum(w > 0))} points have a positive weight; need {cfg.min_points}"
-            )
-    check_not_degenerate(p, cfg.min_points)
-    return p, n, w
-
-
-def pack_views(views: Sequence[tuple], n_points: int | None = None, cfg: PoissonConfig = None):
-    """Validates views and pads them to one point count.
-
-    Args:
-        views: Sequence of ``(points (N_i, 3), normals (N_i, 3), weights (N_i,) or None)``.
-        n_points: Padded point count (default: the largest N_i).
-        cfg: Configuration (for ``min_points``).
-
-    Returns:
-        ``(points, normals, weights, valid)`` float32 arrays (B, N, 3), (B, N, 3), (B, N), bool
-        (B, N).
-    """
-    cfg = _check_cfg(cfg)
-    checked = [_check_view(*v, cfg, i=i) for i, v in enumerate(views)]
-    if not checked:
-        raise InvalidInputError("views is empty; expected at least one (points, normals, weights)")
-    n_max = max(c[0].shape[0] for c in checked)
-    n = n_max if n_points is None else int(n_points)
-    if n < n_max:
-        raise ShapeError(f"n_points={n} is smaller than the largest view ({n_max} points)")
-    b = len(checked)
-    P = np.zeros((b, n, 3), np.float32)
-    Nn = np.zeros((b, n, 3), np.float32)
-    Wt = np.zeros((b, n), np.float32)
-    V = np.zeros((b, n), bool)
-    for i, (p, nn, w) in enumerate(checked):
-        m = p.shape[0]
-        P[i, :m], Nn[i, :m], Wt[i, :m], V[i, :m] = p, nn, w, True
-    return P, Nn, Wt, V
-
-
-def poisson_grid(points, normals, weights=None, cfg: PoissonConfig | None = None) -> PoissonGrid:
-    """Solves the indicator function of one view (jitted; see :func:`poisson_reconstruct`)."""
-    cfg = _check_cfg(cfg)
-    P, N, W, V = pack_views([(points, normals, weights)], cfg=cfg)
-    return _poisson_jit(P[0], N[0], W[0], V[0], cfg)
-
-
-def poisson_grids(points, normals, weights, valid, cfg: PoissonConfig | None = None) -> PoissonGrid:
-    """Solves the indicator functions of a padded batch of views in one jitted call.
-
-    Args:
-        points: (B, N, 3) float32 points, metres (see :func:`pack_views`).
-        normals: (B, N, 3) unit outward normals.
-        weights: (B, N) non-negative weights.
-        valid: (B, N) bool, which rows are real points.
-        cfg: Configuration; ``cfg.chunk_views`` views are solved at once.
-
-    Returns:
-        A batched :class:`PoissonGrid` with chi (B, R, R, R).
-    """
-    cfg = _check_cfg(cfg)
-    points = jnp.asarray(points)
-    if points.ndim != 3 or points.shape[-1] != 3:
-        raise ShapeError(f"points must have shape (B, N, 3), got {points.shape}")
-    b, n = points.shape[:2]
-    expected = {"normals": (b, n, 3), "weights": (b, n), "valid": (b, n)}
-    for name, arr in (("normals", normals), ("weights", weights), ("valid", valid)):
-        if tuple(np.shape(arr)) != expected[name]:
-            raise ShapeError(f"{name} must have shape {expected[name]}, got {np.shape(arr)}")
-    chunk = b if cfg.chunk_views == 0 else min(cfg.chunk_views, b)
-    pad = (-b) % chunk
-    arrs = [points, jnp.asarray(normals), jnp.asarray(weights), jnp.asarray(valid, bool)]
-    if pad:
-        # Repeat the first view to fill the last chunk; the copies are dropped below.
-        arrs = [jnp.concatenate([a, jnp.repeat(a[:1], pad, axis=0)], axis=0) for a in arrs]
-    out = _poisson_batch_jit(*arrs, cfg, chunk)
-    return jax.tree_util.tree_map(lambda x: x[:b], out) if pad else out
-
-
-def _largest_component(verts: np.ndarray, faces: np.ndarray):
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    nv = verts.shape[0]
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]]], axis=0)
-    graph = coo_matrix((np.ones(len(e), np.int8), (e[:, 0], e[:, 1])), shape=(nv, nv))
-    n_comp, labels = connected_components(graph, directed=False)
-    if n_comp == 1:
-        return verts, faces
-    face_label = labels[faces[:, 0]]
-    best = np.argmax(np.bincount(face_label, minlength=n_comp))
-    faces = faces[face_label == best]
-    used = np.unique(faces)
-    remap = np.full(nv, -1, np.int64)
-    remap[used] = np.arange(used.size)
-    return verts[used], remap[faces]
-
-
-def _signed_volume(verts: np.ndarray, faces: np.ndarray) -> float:
-    """Enclosed volume of a closed mesh, positive when its faces wind outwards, m^3."""
-    a, b, c = verts[faces[:, 0]], verts[faces[:, 1]], verts[faces[:, 2]]
-    return float(np.einsum("ij,ij->", a, np.cross(b, c)) / 6.0)
-
-
-def _is_closed(faces: np.ndarray, n_vertices: int) -> bool:
-    """Watertight with consistent winding: each directed edge once, and its reverse once.
-
-    The same test as ``trimesh``'s ``is_watertight and is_winding_consistent``, several times
-    cheaper on marching-cubes meshes of 10^5 faces.
-    """
-    a = faces.reshape(-1)
-    b = np.roll(faces, -1, axis=1).reshape(-1)
-    fwd = np.sort(a.astype(np.int64) * n_vertices + b)
-    rev = np.sort(b.astype(np.int64) * n_vertices + a)
-    return bool(np.all(fwd[1:] != fwd[:-1]) and np.array_equal(fwd, rev))
-
-
-def grid_to_mesh(grid: PoissonGrid, cfg: PoissonConfig | None = None):
-    """Marching cubes of one solved grid into a closed, outward-oriented mesh.
-
-    Args:
-        grid: A single-view :class:`PoissonGrid`.
-        cfg: Configuration (``keep_largest``).
-
-    Returns:
-        A watertight ``trimesh.Trimesh`` in world coordinates, metres.
-
-    Raises:
-        DegenerateGeometryError: If the iso-surface is empty or not watertight.
-    """
-    import trimesh
-    from skimage import measure
-
-    cfg = _check_cfg(cfg)
-    chi = np.asarray(grid.chi, dtype=np.float32)
-    if chi.ndim != 3:
-        raise ShapeError("grid_to_mesh() needs one view; index the batch first: grid[i]")
-    iso = float(grid.iso)
-    if not np.isfinite(iso) or not np.all(np.isfinite(chi)):
-        raise DegenerateGeometryError("the Poisson solve produced NaN; check points and normals")
-    lo_v, hi_v = float(chi.min()), float(chi.max())
-    if not (lo_v < iso < hi_v):
-        raise DegenerateGeometryError(
-            "the indicator function does not cross its iso-value: no surface to extract"
-        )
-    border = np.concatenate(
-        [chi[[0, -1]].ravel(), chi[:, [0, -1]].ravel(), chi[:, :, [0, -1]].ravel()]
-    )
-    if np.median(border) >= iso:
-        # Far from the points chi must be "outside"; otherwise the normals point inwards.
-        raise DegenerateGeometryError(
-            "the indicator function is inside-out (larger than the iso-value far from the points):"
-            " the normals point into the object; expected outward-facing normals"
-        )
-    # One layer of "outside" around the grid closes surfaces that reach the box faces.
-    vol = np.pad(chi, 1, mode="constant", constant_values=min(lo_v, iso - 1.0))
-    verts, faces, _, _ = measure.marching_cubes(vol, level=iso)
-    verts = np.asarray(grid.origin, np.float64) + (verts - 1.0) * float(grid.cell)
-    faces = faces.astype(np.int64)
-    if cfg.keep_largest:
-        verts, faces = _largest_component(verts, faces)
-    if _signed_volume(verts, faces) < 0:
-        faces = faces[:, ::-1]
-    if not _is_closed(faces, verts.shape[0]):
-        raise DegenerateGeometryError(
-            "marching cubes returned a mesh that is not watertight; try another depth"
-        )
-    mesh = trimesh.Trimesh(verts, faces, process=False)
-    return mesh
-
-
-def poisson_reconstruct(points, normals, weights=None, cfg: PoissonConfig | None = None):
+def poisson_reconstruct(
+    points: Any, normals: Any, weights: Any = None, config: PoissonConfig | None = None
+):
     """Watertight mesh of one oriented point cloud.
 
     Args:
-        points: (N, 3) points, metres, N >= ``cfg.min_points``.
+        points: (N, 3) points, metres, N >= ``config.min_points``.
         normals: (N, 3) outward normals (normalised here).
         weights: Optional (N,) non-negative per-point weights (e.g. the plausibility).
-        cfg: Configuration (``cfg.depth`` 5 or 7 as in the paper).
+        config: :class:`PoissonConfig` (``depth`` 5 or 7 as in the paper).
 
     Returns:
         A watertight ``trimesh.Trimesh`` in world coordinates, metres.
 
     Raises:
         ShapeError: On wrongly shaped inputs.
-        EmptyInputError: With fewer than ``cfg.min_points`` points.
+        EmptyInputError: With fewer than ``config.min_points`` points.
         DegenerateGeometryError: On collinear or coplanar points, NaN or zero normals, or when
             no closed surface can be extracted.
     """
-    cfg = _check_cfg(cfg)
-    return grid_to_mesh(poisson_grid(points, normals, weights, cfg), cfg)
+    cfg = config_or_default(config, PoissonConfig)
+    n = len(points) if hasattr(points, "__len__") else 0
+    P, N, W, V = pack_views([(points, normals, weights)], cfg, bucket(max(n, 1)))
+    return grid_to_mesh(jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg)), cfg)
+
+
+def _as_triple(view: Any) -> tuple:
+    if isinstance(view, OrientedPoints):
+        return view.points, view.normals, view.weights
+    if isinstance(view, tuple) and len(view) in (2, 3):
+        return view if len(view) == 3 else (*view, None)
+    raise InvalidInputError(
+        f"a Poisson view must be OrientedPoints or (points, normals[, weights]), got"
+        f" {type(view).__name__}"
+    )
 
 
 def poisson_reconstruct_batch(
-    views: Sequence[tuple], cfg: PoissonConfig | None = None, n_points: int | None = None
+    views: Sequence[Any],
+    config: PoissonConfig | None = None,
+    execution: ExecutionConfig | None = None,
+    errors: Literal["raise", "keep"] = "raise",
 ) -> list:
-    """Watertight meshes of several views, solved in one jitted call.
+    """Watertight meshes of several oriented clouds, solved in one jitted call.
 
     Args:
-        views: Sequence of ``(points (N_i, 3), normals (N_i, 3), weights (N_i,) or None)`` or
-            :class:`~symjax.surface.normals.OrientedPoints`.
-        cfg: Configuration.
-        n_points: Padded point count; fixing it (e.g. to a power of two) avoids recompiling
-            for every new largest view.
+        views: :class:`~symjax.surface.normals.OrientedPoints` or ``(points (N_i, 3), normals
+            (N_i, 3)[, weights (N_i,)])`` tuples, one per view.
+        config: :class:`PoissonConfig`, shared by the views.
+        execution: ``poisson_chunk_views`` views are solved at once; no effect on the result.
+        errors: ``"raise"``: the first bad view raises. ``"keep"``: a bad view's entry is its
+            :class:`~symjax.errors.SymjaxError` and the other views are meshed as if alone.
 
     Returns:
-        One ``trimesh.Trimesh`` per view.
+        One ``trimesh.Trimesh`` per view, in order (or the view's error, with ``"keep"``).
     """
-    cfg = _check_cfg(cfg)
-    views = [(v.points, v.normals, v.weights) if hasattr(v, "normals") else v for v in views]
-    P, N, W, V = pack_views(views, n_points, cfg)
-    grids = jax.device_get(poisson_grids(P, N, W, V, cfg))
-    return [grid_to_mesh(grids[i], cfg) for i in range(len(views))]
-
-
-def mesh_completion(result, camera, normals_cfg=None, cfg: PoissonConfig | None = None):
-    """Mesh of one completed view: outlier filter, oriented normals, weighted Poisson.
-
-    Args:
-        result: A single-view :class:`~symjax.symmetry.SymmetryResult`.
-        camera: The :class:`~symjax.camera.Camera` that took the view.
-        normals_cfg: :class:`~symjax.surface.config.NormalsConfig`.
-        cfg: Poisson configuration; the plausibility weighs mirrored points when
-            ``cfg.use_weights``.
-
-    Returns:
-        A watertight ``trimesh.Trimesh`` in world coordinates, metres.
-    """
-    op = oriented_completion(result, camera, normals_cfg)
-    return poisson_reconstruct(op.points, op.normals, op.weights, cfg)
-
-
-def mesh_completions(
-    results, cameras: Sequence, normals_cfg=None, cfg: PoissonConfig | None = None
-) -> list:
-    """Meshes of a batch of completed views, the Poisson solves in one jitted call.
-
-    Args:
-        results: A batched :class:`~symjax.symmetry.SymmetryResult` (from ``search_batch``) or
-            a sequence of single-view results.
-        cameras: One camera per view.
-        normals_cfg: :class:`~symjax.surface.config.NormalsConfig`.
-        cfg: Poisson configuration.
-
-    Returns:
-        One watertight ``trimesh.Trimesh`` per view.
-    """
-    n = len(results)
-    if len(cameras) != n:
-        raise ShapeError(f"got {n} results but {len(cameras)} cameras; expected one per view")
-    ops = [oriented_completion(results[i], cameras[i], normals_cfg) for i in range(n)]
-    # A power-of-two point count keeps the compiled solver across batches of similar views.
-    n_pad = 1 << int(np.ceil(np.log2(max(len(op) for op in ops))))
-    return poisson_reconstruct_batch(ops, cfg, n_points=n_pad)
+    cfg = config_or_default(config, PoissonConfig)
+    ex = config_or_default(execution, ExecutionConfig, "execution")
+    if errors not in ("raise", "keep"):
+        raise InvalidInputError(f"errors must be 'raise' or 'keep', got {errors!r}")
+    views = list(views)
+    if not views:
+        raise InvalidInputError("views is empty; expected at least one oriented cloud")
+    triples = [_as_triple(v) for v in views]
+    out: list = [None] * len(views)
+    packed: dict[int, tuple] = {}
+    n_pad = bucket(max(len(t[0]) for t in triples))
+    for i, t in enumerate(triples):
+        try:
+            packed[i] = pack_views([t], cfg, max(n_pad, len(t[0])))
+        except SymjaxError as e:
+            if errors == "raise":
+                raise
+            out[i] = e
+    idx = sorted(packed)
+    if idx:
+        arrays = [jax.numpy.concatenate([packed[i][k] for i in idx]) for k in range(4)]
+        grids = jax.device_get(solve_grids(*arrays, cfg, ex.poisson_chunk_views))
+        for j, i in enumerate(idx):
+            try:
+                out[i] = grid_to_mesh(grids[j], cfg)
+            except SymjaxError as e:
+                if errors == "raise":
+                    raise
+                out[i] = e
+    return out

@@ -1,16 +1,15 @@
-"""Planar reflection symmetry perpendicular to the table (paper Section II-A)."""
+"""Planar reflection symmetry perpendicular to the table (paper Section II-A).
+
+Modules: ``config`` (search parameters), ``view`` (a view packed for the kernels), ``scoring``
+(Eq. 3 per plane), ``hypotheses`` (Eq. 1 start, the n x m grid, refinement, Eq. 4), ``result``,
+``solver`` (the jitted entry points), ``reference`` (a numpy scorer for tests).
+"""
 
 from symjax.symmetry.config import SymmetryConfig
-from symjax.symmetry.search import (
-    SymmetryResult,
-    ViewArrays,
-    complete,
-    prepare_view,
-    reflect,
-    score_planes,
-    search,
-    search_batch,
-)
+from symjax.symmetry.result import SymmetryResult
+from symjax.symmetry.scoring import reflect, score_planes
+from symjax.symmetry.solver import complete, search, search_batch
+from symjax.symmetry.view import ViewArrays, prepare_view
 
 __all__ = [
     "SymmetryConfig",

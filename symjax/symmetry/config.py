@@ -37,6 +37,9 @@ class SymmetryConfig:
     around the best one with the previous level's step as half-range (level 0 is the paper's
     grid). With ``n_refine=0`` the search is exactly the paper's.
 
+    Chunk sizes, which change speed but never the result, are in
+    :class:`symjax.execution.ExecutionConfig`.
+
     Attributes:
         init: Initial axes: ``"eigen"`` (paper, Eq. 1) or ``"eigen+box"`` (Eq. 1 plus the
             view-facing axis of the minimum-area bounding rectangle).
@@ -64,10 +67,6 @@ class SymmetryConfig:
             violating points weigh less than many.
         plausibility_px: Pixel scale of the per-point plausibility ``exp(-delta_1 / px^2)``.
         plausibility_depth: Depth scale (metres) of the plausibility ``exp(-delta_2 / depth)``.
-        chunk_views: Views scored at once by :func:`search_batch` (bounds memory and keeps the
-            intermediates in cache: 4 was fastest on a 2-core CPU; 0 = all).
-        chunk_hypotheses: Planes of one view scored at once (bounds the size of the per-point
-            intermediates; 0 = all).
     """
 
     init: Literal["eigen", "eigen+box"] = "eigen+box"
@@ -85,8 +84,6 @@ class SymmetryConfig:
     normalize: Literal["subset", "all"] = "subset"
     plausibility_px: float = 3.0
     plausibility_depth: float = 0.01
-    chunk_views: int = 4
-    chunk_hypotheses: int = 64
 
     def __post_init__(self) -> None:
         if self.n_angles < 1 or self.n_shifts < 1:
@@ -111,10 +108,6 @@ class SymmetryConfig:
             raise ConfigError(f"normalize must be 'subset' or 'all', got {self.normalize!r}")
         if self.plausibility_px <= 0 or self.plausibility_depth <= 0:
             raise ConfigError("plausibility scales must be > 0")
-        if self.chunk_hypotheses < 0:
-            raise ConfigError(f"chunk_hypotheses must be >= 0, got {self.chunk_hypotheses}")
-        if self.chunk_views < 0:
-            raise ConfigError(f"chunk_views must be >= 0, got {self.chunk_views}")
 
     @property
     def n_hypotheses(self) -> int:

@@ -1,0 +1,53 @@
+"""How work is split and run: settings that change speed and memory, never results.
+
+Kept apart from the numeric configurations so that caches, resume keys and result files depend
+on the numbers alone: two runs that differ only here produce the same results.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from symjax.errors import ConfigError
+
+__all__ = ["ExecutionConfig"]
+
+
+def _int_at_least(name: str, value: object, low: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ConfigError(f"{name} must be an integer >= {low}, got {value!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class ExecutionConfig:
+    """Batching, chunking and threading of the jitted and simulated stages.
+
+    Attributes:
+        symmetry_chunk_views: Views scored at once by :func:`symjax.symmetry.search_batch`
+            (bounds memory and keeps intermediates in cache: 4 was fastest on a 2-core CPU;
+            0 = all).
+        symmetry_chunk_hypotheses: Planes of one view scored at once (bounds the per-point
+            intermediates; 0 = all).
+        poisson_chunk_views: Views solved at once by the batched Poisson solver (0 = all).
+        simulation_chunk: Candidates per jitted MJX call; larger batches are split.
+        simulation_threads: C MuJoCo rollout threads (0 = one per core).
+        eval_batch_size: Views per batch through the evaluation's search and Poisson solve.
+        progress: Show progress bars.
+    """
+
+    symmetry_chunk_views: int = 4
+    symmetry_chunk_hypotheses: int = 64
+    poisson_chunk_views: int = 8
+    simulation_chunk: int = 512
+    simulation_threads: int = 0
+    eval_batch_size: int = 16
+    progress: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("symmetry_chunk_views", "symmetry_chunk_hypotheses", "poisson_chunk_views",
+                     "simulation_threads"):  # fmt: skip
+            _int_at_least(name, getattr(self, name), 0)
+        _int_at_least("simulation_chunk", self.simulation_chunk, 1)
+        _int_at_least("eval_batch_size", self.eval_batch_size, 1)
+        if not isinstance(self.progress, bool):
+            raise ConfigError(f"progress must be true or false, got {self.progress!r}")

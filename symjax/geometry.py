@@ -1,0 +1,166 @@
+"""Geometry shared by every stage: pixel rays, back-projection, reflection, rotations, buckets.
+
+Conventions: pinhole intrinsics ``K`` (3, 3) in pixels with skew ``K[0, 1]``; camera frame x
+right, y down, z along the optical axis; ``T_world_cam`` (4, 4) maps camera to world; depth is
+metres along the optical axis; planes are ``{x : normal . x = offset}``; rotations are (3, 3)
+matrices acting on column vectors. Functions take numpy arrays unless marked JAX; the JAX ones
+work on one example and are batched with ``vmap`` by their callers.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+__all__ = [
+    "backproject",
+    "bucket",
+    "euler_zyx",
+    "pad_rows",
+    "pixel_rays",
+    "quat_to_matrix",
+    "reflect",
+    "rot_z",
+    "rot_zyx",
+    "rotation_angle",
+]
+
+
+def pixel_rays(K: Any, height: int, width: int, xp: Any = np) -> Any:
+    """Camera-frame ray of every pixel centre, scaled to unit z.
+
+    Args:
+        K: (3, 3) intrinsics, pixels.
+        height: Image rows.
+        width: Image columns.
+        xp: ``numpy`` (float64) or ``jax.numpy`` (float32).
+
+    Returns:
+        (height, width, 3) rays ``[x/z, y/z, 1]``: a ray times the depth is the camera point.
+    """
+    K = xp.asarray(K)
+    v, u = xp.meshgrid(
+        xp.arange(height, dtype=K.dtype), xp.arange(width, dtype=K.dtype), indexing="ij"
+    )
+    yn = (v - K[1, 2]) / K[1, 1]
+    xn = (u - K[0, 2] - K[0, 1] * yn) / K[0, 0]
+    return xp.stack([xn, yn, xp.ones_like(xn)], axis=-1)
+
+
+def backproject(depth: np.ndarray, K: Any, T_world_cam: Any, select: Any = None) -> np.ndarray:
+    """World points of the pixels of a depth image.
+
+    Args:
+        depth: (H, W) depth, metres along the optical axis.
+        K: (3, 3) intrinsics, pixels.
+        T_world_cam: (4, 4) camera-to-world pose.
+        select: Optional (H, W) bool mask of the pixels to keep (default: depth > 0).
+
+    Returns:
+        (M, 3) float64 world points, metres, in row-major pixel order of the selection.
+    """
+    depth = np.asarray(depth)
+    sel = depth > 0 if select is None else np.asarray(select, bool)
+    rays = pixel_rays(np.asarray(K, np.float64), *depth.shape)[sel]
+    T = np.asarray(T_world_cam, np.float64)
+    return (rays * depth[sel].astype(np.float64)[:, None]) @ T[:3, :3].T + T[:3, 3]
+
+
+def reflect(points: Any, normal: Any, offset: Any) -> Any:
+    """Mirrors points (..., 3) across the plane ``{x : normal . x = offset}`` (Eq. 2).
+
+    Works on numpy and JAX arrays alike; ``normal`` (3,) must be a unit vector.
+    """
+    dist = points @ normal - offset
+    return points - 2.0 * dist[..., None] * normal[None, :]
+
+
+def rot_z(angle: float) -> np.ndarray:
+    """(3, 3) rotation by ``angle`` radians about the world z axis (the table normal)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def euler_zyx(R: Any) -> Any:
+    """JAX: intrinsic z-y-x angles (a, b, c) with ``R = Rz(a) Ry(b) Rx(c)``, shape (..., 3).
+
+    At gimbal lock (the x axis vertical) only ``a + c`` or ``a - c`` is defined; ``a`` is then 0.
+    """
+    cb = jnp.sqrt(R[..., 0, 0] ** 2 + R[..., 1, 0] ** 2)
+    b = jnp.arctan2(-R[..., 2, 0], cb)
+    lock = cb < 1e-6
+    a = jnp.where(lock, 0.0, jnp.arctan2(R[..., 1, 0], R[..., 0, 0]))
+    c = jnp.where(
+        lock, jnp.arctan2(-R[..., 1, 2], R[..., 1, 1]), jnp.arctan2(R[..., 2, 1], R[..., 2, 2])
+    )
+    return jnp.stack([a, b, c], axis=-1)
+
+
+def rot_zyx(e: Any) -> Any:
+    """JAX: rotation matrices (..., 3, 3) of intrinsic z-y-x angles (..., 3), the inverse of
+    :func:`euler_zyx`."""
+    a, b, c = e[..., 0], e[..., 1], e[..., 2]
+    ca, sa, cb, sb, cc, sc = jnp.cos(a), jnp.sin(a), jnp.cos(b), jnp.sin(b), jnp.cos(c), jnp.sin(c)
+    return jnp.stack(
+        [
+            jnp.stack([ca * cb, ca * sb * sc - sa * cc, ca * sb * cc + sa * sc], -1),
+            jnp.stack([sa * cb, sa * sb * sc + ca * cc, sa * sb * cc - ca * sc], -1),
+            jnp.stack([-sb, cb * sc, cb * cc], -1),
+        ],
+        axis=-2,
+    )
+
+
+def quat_to_matrix(q: Any) -> Any:
+    """JAX: rotation matrices (..., 3, 3) of unit quaternions (..., 4), MuJoCo's (w, x, y, z)."""
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return jnp.stack(
+        [
+            jnp.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            jnp.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            jnp.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=-2,
+    )
+
+
+def rotation_angle(Ra: Any, Rb: Any) -> Any:
+    """JAX: angle (radians) of the rotation between two (3, 3) rotations."""
+    c = (jnp.trace(Ra.T @ Rb) - 1.0) / 2.0
+    return jnp.arccos(jnp.clip(c, -1.0, 1.0))
+
+
+def bucket(n: int, minimum: int = 256) -> int:
+    """Rounds a count up to one of few sizes so that jitted functions are reused.
+
+    Sizes are ``2^k * {1, 1.25, 1.5, 1.75}``: at most 25% padding (a power of two alone would
+    waste up to half of the work, e.g. 40,000 -> 65,536), while the number of distinct compiled
+    shapes stays logarithmic (32 sizes from 1,000 to 200,000 points, 4 per doubling).
+
+    Args:
+        n: The count.
+        minimum: The smallest size returned.
+    """
+    n = max(int(n), int(minimum))
+    k = int(np.floor(np.log2(n)))
+    for step in (4, 5, 6, 7, 8):
+        size = (step << k) // 4
+        if size >= n:
+            return size
+    raise AssertionError("unreachable")  # step 8 is 2^(k+1) > n
+
+
+def pad_rows(x: np.ndarray, n: int) -> np.ndarray:
+    """Pads the leading axis to ``n`` rows by repeating the last row (a valid, ignored input).
+
+    Args:
+        x: (m, ...) array with m >= 1.
+        n: Rows wanted, n >= m.
+    """
+    x = np.asarray(x)
+    m = x.shape[0]
+    if m == n:
+        return x
+    return np.concatenate([x, np.repeat(x[-1:], n - m, axis=0)], axis=0)

@@ -1,0 +1,210 @@
+"""Plane hypotheses of one view: Eq. 1's initial axis, the box axis, the n x m grid and its
+coarse-to-fine refinement, scored and reduced to the best plane (Eq. 4).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from symjax.symmetry.config import SymmetryConfig
+from symjax.symmetry.result import SymmetryResult
+from symjax.symmetry.scoring import point_terms, reflect, score_planes
+from symjax.symmetry.view import ViewArrays
+
+__all__ = ["search_view"]
+
+SAMPLE_POINTS = 4096
+
+
+def _initial_plane(view: ViewArrays):
+    """Centroid, initial axis s (Eq. 1), base plane normal m0 (away from camera), extent L."""
+    n = view.table_normal
+    w = view.valid.astype(jnp.float32)
+    cnt = jnp.maximum(w.sum(), 1.0)
+    c = (view.points * w[:, None]).sum(0) / cnt
+    d = view.points - c[None, :]
+    d = d - (d @ n)[:, None] * n[None, :]  # projection onto the table plane
+    cov = (d * w[:, None]).T @ d / cnt
+    _, vecs = jnp.linalg.eigh(cov)
+    e_a, e_b = vecs[:, 2], vecs[:, 1]  # major, minor in-plane eigenvectors
+    v = view.t_wc - c  # inverse viewing direction
+    v = v - (v @ n) * n
+    v = v / jnp.maximum(jnp.linalg.norm(v), 1e-9)
+    s = jnp.where(jnp.abs(e_a @ v) <= jnp.abs(e_b @ v), e_a, e_b)
+    m0 = jnp.cross(n, s)
+    m0 = m0 / jnp.maximum(jnp.linalg.norm(m0), 1e-9)
+    m0 = jnp.where(m0 @ v > 0, -m0, m0)
+    s = jnp.cross(m0, n)  # re-orthogonalised, consistent handedness
+
+    sample = d[_valid_sample(view.valid)]
+
+    def robust_extent(axis):
+        lo, hi = jnp.percentile(sample @ axis, jnp.array([2.0, 98.0]))
+        return hi - lo
+
+    L = jnp.maximum(robust_extent(e_a), robust_extent(e_b))
+    return c, s, m0, L
+
+
+def _valid_sample(valid, size: int = SAMPLE_POINTS):
+    """Indices (size,) of valid points spread evenly over them (repeats when fewer).
+
+    The extent and the box orientation only need the shape of the cloud: a fixed-size sample
+    keeps their sorts and sweeps cheap for 40,000-point views.
+    """
+    size = min(size, valid.shape[0])
+    rank = jnp.cumsum(valid.astype(jnp.int32))
+    n = jnp.maximum(rank[-1], 1)
+    want = (jnp.arange(size) * n) // size + 1
+    return jnp.clip(jnp.searchsorted(rank, want), 0, valid.shape[0] - 1)
+
+
+def _box_angle(view: ViewArrays, c, m0, side, n_sweep: int = 90):
+    """Orientation (radians, relative to m0) of the minimum-area rectangle bounding the
+    table-projected cloud, by a sweep over [0, 90) deg (an edge direction is its normal)."""
+    d = view.points[_valid_sample(view.valid)] - c[None, :]
+    x, y = d @ m0, d @ side
+    th = jnp.arange(n_sweep) * (jnp.pi / 2 / n_sweep)
+
+    def area(t):
+        a = jnp.cos(t) * x + jnp.sin(t) * y
+        b = -jnp.sin(t) * x + jnp.cos(t) * y
+        return (a.max() - a.min()) * (b.max() - b.min())
+
+    return th[jnp.argmin(jax.vmap(area)(th))]
+
+
+def _wrap(phi):
+    """Angle of a plane normal wrapped to [-pi/2, pi/2): the same plane, normal away from camera."""
+    return jnp.mod(phi + jnp.pi / 2, jnp.pi) - jnp.pi / 2
+
+
+def _plane_grid(n, m0, c, angles, shifts):
+    """Normals (A*S, 3) and offsets (A*S,) of the grid of rotated and shifted planes."""
+    side = jnp.cross(n, m0)
+    normals = jnp.cos(angles)[:, None] * m0[None, :] + jnp.sin(angles)[:, None] * side[None, :]
+    offsets = (normals @ c)[:, None] + shifts[None, :]  # (A, S)
+    S = shifts.shape[0]
+    return jnp.repeat(normals, S, axis=0), offsets.reshape(-1)
+
+
+def search_view(
+    view: ViewArrays, cfg: SymmetryConfig, gate, chunk_planes: int = 64
+) -> SymmetryResult:
+    """The whole search for one view (traced; jit and vmap are applied by the callers).
+
+    ``gate`` is the unbatched scalar of :func:`score_planes`; ``chunk_planes`` its chunk size
+    (:attr:`symjax.execution.ExecutionConfig.symmetry_chunk_hypotheses`).
+    """
+    n = view.table_normal
+    c, s, m0, L = _initial_plane(view)
+    side = jnp.cross(n, m0)
+    A, S = cfg.n_angles, cfg.n_shifts
+    unit_a = jnp.linspace(-1.0, 1.0, A) if A > 1 else jnp.zeros(1)
+    unit_s = jnp.linspace(0.0, 1.0, S) if S > 1 else jnp.full(1, 0.5)
+
+    starts = [jnp.float32(0.0)]
+    if cfg.init == "eigen+box":
+        # Of the rectangle's two axes keep, as Eq. 1 does among the eigenvectors, the plane whose
+        # normal is closest to the viewing direction: the other one maps the visible surface
+        # onto itself, scores well and completes nothing behind the object.
+        away = c - view.t_wc
+        view_angle = jnp.arctan2(away @ side, away @ m0)
+        a0, a1 = _wrap(box := _box_angle(view, c, m0, side)), _wrap(box + jnp.pi / 2)
+        d0, d1 = jnp.abs(_wrap(a0 - view_angle)), jnp.abs(_wrap(a1 - view_angle))
+        starts.append(jnp.where(d0 <= d1, a0, a1))
+    starts = jnp.stack(starts)
+
+    # Level 0: the paper's fan of n x m hypotheses around every initial axis, one vmap.
+    angles0 = starts[:, None] + (unit_a * cfg.angle_range)[None, :]  # (n_starts, A)
+    shifts0 = (cfg.shift_min + unit_s * (cfg.shift_max - cfg.shift_min)) * L  # (S,)
+    normals, offsets = _plane_grid(n, m0, c, angles0.reshape(-1), shifts0)
+    out0, in0, votes0 = score_planes(view, normals, offsets, cfg, gate, chunk_planes)
+    k = jnp.argmin(votes0)
+    ks, rem = k // (A * S), k % (A * S)
+    ia, js = rem // S, rem % S
+    # Each initial axis keeps its best orientations (the best shift of each) and refines them on
+    # their own: on the coarse grid the right plane can lose to a wrong one only because its
+    # true shift lies between two steps, so one chain per axis is not enough.
+    n_chains = min(cfg.n_chains, A)
+    per_angle = votes0.reshape(-1, A, S)
+    best_shift = jnp.argmin(per_angle, axis=2)  # (n_starts, A)
+    best_vote = jnp.min(per_angle, axis=2)
+    _, top = jax.lax.top_k(-best_vote, n_chains)  # (n_starts, n_chains)
+    rows = jnp.arange(per_angle.shape[0])[:, None]
+    chains = (
+        angles0[rows, top].reshape(-1),
+        shifts0[best_shift[rows, top]].reshape(-1),
+        best_vote[rows, top].reshape(-1),
+    )
+    chain_start = jnp.repeat(jnp.arange(per_angle.shape[0]), n_chains)
+    da = cfg.angle_range / max((A - 1) / 2, 1)
+    ds = (cfg.shift_max - cfg.shift_min) * L / max(S - 1, 1)
+
+    def refine_level(chain, steps):
+        best_a, best_s, best_vote = chain
+        da, ds = steps
+        angles = best_a + unit_a * da
+        shifts = best_s + (2.0 * unit_s - 1.0) * ds
+        normals, offsets = _plane_grid(n, m0, c, angles, shifts)
+        _, _, votes = score_planes(view, normals, offsets, cfg, gate, chunk_planes)
+        k = jnp.argmin(votes)
+        better = votes[k] < best_vote
+        new = (
+            jnp.where(better, angles[k // S], best_a),
+            jnp.where(better, shifts[k % S], best_s),
+            jnp.minimum(votes[k], best_vote),
+        )
+        return new, (angles, shifts, votes.reshape(A, S))
+
+    r_angles, r_shifts, r_votes = [], [], []
+    for _level in range(cfg.n_refine):
+        chains, (ang, sh, vo) = jax.vmap(refine_level, in_axes=(0, None))(chains, (da, ds))
+        da = da / max((A - 1) / 2, 1)
+        ds = 2.0 * ds / max(S - 1, 1)
+        # Report the refinement grids of the chain that ends up best (selected below).
+        r_angles.append(ang)
+        r_shifts.append(sh)
+        r_votes.append(vo)
+    handicap = jnp.where(chain_start > 0, 1.0 + cfg.start_margin, 1.0)
+    win = jnp.argmin(chains[2] * handicap)
+    best_a, best_s, best_vote = chains[0][win], chains[1][win], chains[2][win]
+    r_angles = [a[win] for a in r_angles]
+    r_shifts = [a[win] for a in r_shifts]
+    r_votes = [a[win] for a in r_votes]
+
+    normal = jnp.cos(best_a) * m0 + jnp.sin(best_a) * side
+    offset = normal @ c + best_s
+    mirrored = reflect(view.points, normal, offset)
+    delta1, delta2, _ = point_terms(view, mirrored, cfg)
+    keep = view.valid & (delta2 <= 0.0)
+    plaus = jnp.exp(-delta1 / cfg.plausibility_px**2) * jnp.exp(-delta2 / cfg.plausibility_depth)
+    R = cfg.n_refine
+    return SymmetryResult(
+        normal=normal,
+        offset=offset,
+        angle=best_a,
+        shift=best_s,
+        vote=best_vote,
+        centroid=c,
+        initial_axis=s,
+        extent=L,
+        angles=angles0,
+        shifts=shifts0,
+        votes=votes0.reshape(-1, A, S),
+        vote_outside=out0.reshape(-1, A, S),
+        vote_inside=in0.reshape(-1, A, S),
+        best_index=jnp.stack([ks, ia, js]).astype(jnp.int32),
+        best_start=chain_start[win].astype(jnp.int32),
+        refine_angles=jnp.stack(r_angles) if R else jnp.full((1, A), jnp.nan),
+        refine_shifts=jnp.stack(r_shifts) if R else jnp.full((1, S), jnp.nan),
+        refine_votes=jnp.stack(r_votes) if R else jnp.full((1, A, S), jnp.nan),
+        points=view.points,
+        valid=view.valid,
+        mirrored=mirrored,
+        mirrored_keep=keep,
+        plausibility=jnp.where(view.valid, plaus, 0.0),
+    )
+
+

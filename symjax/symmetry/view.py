@@ -1,0 +1,86 @@
+"""One view packed for the symmetry kernels: points, camera and the mask/depth image."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from symjax._pytree import pytree_dataclass
+from symjax.errors import InvalidInputError, ShapeError
+from symjax.observation import MIN_POINTS, Observation
+
+__all__ = ["ViewArrays", "prepare_view"]
+
+@pytree_dataclass
+class ViewArrays:
+    """Device arrays of one view (or a batch, with a leading axis) as the kernel reads them.
+
+    Attributes:
+        points: (N, 3) world points, metres; padded rows are ignored.
+        valid: (N,) bool.
+        table_normal: (3,) unit up normal of the table.
+        R_wc: (3, 3) camera-to-world rotation.
+        t_wc: (3,) camera centre, metres.
+        K: (3, 3) intrinsics, pixels.
+        image: (H, W, 2) per pixel ``[distance to the mask (pixels, 0 inside), observed depth
+            (metres, 0 = none)]``, packed so that one gather serves both terms.
+    """
+
+    points: Any
+    valid: Any
+    table_normal: Any
+    R_wc: Any
+    t_wc: Any
+    K: Any
+    image: Any
+
+# ---------------------------------------------------------------------------------------------
+# Host-side preparation
+
+
+def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
+    """Packs one observation for the kernel: distance transform and depth in one image.
+
+    Args:
+        obs: A single (unbatched) observation.
+        n_points: Pad the points to this many rows (default: no padding).
+
+    Raises:
+        ShapeError: If ``obs`` is batched or its images disagree with its camera.
+    """
+    import cv2
+
+    if not isinstance(obs, Observation):
+        raise InvalidInputError(f"expected a symjax.Observation, got {type(obs).__name__}")
+    if np.ndim(obs.points) != 2:
+        raise ShapeError(
+            f"expected one view (points (N, 3)), got points {np.shape(obs.points)}; "
+            "use search_batch for several views"
+        )
+    mask = np.asarray(obs.mask, bool)
+    depth = np.asarray(obs.depth, np.float32)
+    if mask.shape != depth.shape:
+        raise ShapeError(f"mask {mask.shape} and depth {depth.shape} images must match")
+    if not mask.any():
+        raise InvalidInputError("segmentation mask is empty")
+    n_valid = int(np.asarray(obs.valid).sum())
+    if n_valid < MIN_POINTS:
+        raise InvalidInputError(f"observation has {n_valid} valid points; need >= {MIN_POINTS}")
+    if n_points is not None:
+        obs = obs.padded(n_points)
+    # Distance (pixels) from every pixel to the nearest mask pixel; exact Euclidean.
+    dt = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    T = np.asarray(obs.camera.T_world_cam, np.float64)
+    return ViewArrays(
+        points=jnp.asarray(np.asarray(obs.points, np.float32)),
+        valid=jnp.asarray(np.asarray(obs.valid, bool)),
+        table_normal=jnp.asarray(np.asarray(obs.table.normal, np.float32)),
+        R_wc=jnp.asarray(T[:3, :3].astype(np.float32)),
+        t_wc=jnp.asarray(T[:3, 3].astype(np.float32)),
+        K=jnp.asarray(np.asarray(obs.camera.K, np.float32)),
+        image=jnp.asarray(np.stack([dt.astype(np.float32), depth], axis=-1)),
+    )
+
+
