@@ -14,10 +14,14 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
+from symjax.errors import DegenerateGeometryError, EmptyInputError, InvalidInputError, ShapeError
+
 __all__ = [
+    "as_trimesh",
     "backproject",
     "bucket",
     "euler_zyx",
+    "mesh_arrays",
     "pad_rows",
     "pixel_rays",
     "quat_to_matrix",
@@ -164,3 +168,60 @@ def pad_rows(x: np.ndarray, n: int) -> np.ndarray:
     if m == n:
         return x
     return np.concatenate([x, np.repeat(x[-1:], n - m, axis=0)], axis=0)
+
+
+def mesh_arrays(mesh: Any, what: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+    """The one accepted mesh input, as checked arrays.
+
+    Args:
+        mesh: A ``trimesh.Trimesh`` or a ``(vertices (V, 3), faces (F, 3))`` pair, metres.
+        what: The argument's name, for messages.
+
+    Returns:
+        ``(vertices float64 (V, 3), faces int64 (F, 3))``, C-contiguous.
+
+    Raises:
+        InvalidInputError: Neither a Trimesh nor a pair.
+        ShapeError: Wrong shapes or face indices out of range.
+        EmptyInputError: Fewer than 4 vertices or faces.
+        DegenerateGeometryError: NaN or inf vertices.
+    """
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        vertices, faces = mesh.vertices, mesh.faces
+    elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
+        vertices, faces = mesh
+    else:
+        raise InvalidInputError(
+            f"{what} must be a trimesh.Trimesh or a (vertices (V, 3), faces (F, 3)) pair, got"
+            f" {type(mesh).__name__}"
+        )
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    if f.size and f.dtype.kind not in "iu":
+        raise ShapeError(f"{what} faces must be integer vertex indices, got dtype {f.dtype}")
+    f = np.ascontiguousarray(f, dtype=np.int64)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise ShapeError(f"{what} vertices must have shape (V, 3), got {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise ShapeError(f"{what} faces must have shape (F, 3), got {f.shape}")
+    if len(v) < 4 or len(f) < 4:
+        raise EmptyInputError(
+            f"{what} needs >= 4 vertices and faces, got {len(v)} and {len(f)}"
+        )
+    if not np.all(np.isfinite(v)):
+        raise DegenerateGeometryError(f"{what} vertices contain NaN or inf")
+    if f.min() < 0 or f.max() >= len(v):
+        raise ShapeError(
+            f"{what} face indices must lie in [0, {len(v)}), got [{f.min()}, {f.max()}]"
+        )
+    return v, f
+
+
+def as_trimesh(mesh: Any, what: str = "mesh"):
+    """The one accepted mesh input as a ``trimesh.Trimesh`` (returned as is when it is one)."""
+    import trimesh
+
+    if isinstance(mesh, trimesh.Trimesh):
+        return mesh
+    v, f = mesh_arrays(mesh, what)
+    return trimesh.Trimesh(v, f, process=False)

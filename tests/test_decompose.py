@@ -31,10 +31,10 @@ def ring():
 
 def test_cache_hits_on_second_call(ring, tmp_path):
     v, f = ring
-    first = decompose(v, f, FAST, cache_dir=tmp_path)
-    second = decompose(v, f, FAST, cache_dir=tmp_path)
+    first = decompose((v, f), FAST, cache_dir=tmp_path)
+    second = decompose((v, f), FAST, cache_dir=tmp_path)
     assert not first.cache_hit and second.cache_hit
-    assert second.key == first.key == mesh_key(v, f, FAST)
+    assert second.key == first.key == mesh_key((v, f), FAST)
     assert first.n_hulls == second.n_hulls >= 2
     for (v1, f1), (v2, f2) in zip(first.hulls, second.hulls, strict=True):
         np.testing.assert_array_equal(v1, v2)
@@ -42,14 +42,14 @@ def test_cache_hits_on_second_call(ring, tmp_path):
     # Written atomically: only the entry, no temporary files.
     assert [p.name for p in tmp_path.iterdir()] == [f"{first.key}.npz"]
     # Another setting is another entry.
-    other = decompose(v, f, DecomposeConfig(**{**FAST.__dict__, "max_vertices": 8}), tmp_path)
+    other = decompose((v, f), DecomposeConfig(**{**FAST.__dict__, "max_vertices": 8}), tmp_path)
     assert not other.cache_hit and other.key != first.key
     assert all(len(hv) <= 8 for hv, _ in other.hulls)
 
 
 def test_hulls_are_capped_convex_and_cover_the_ring(ring, tmp_path):
     v, f = ring
-    dec = decompose(v, f, FAST, cache_dir=tmp_path)
+    dec = decompose((v, f), FAST, cache_dir=tmp_path)
     total = 0.0
     for hv, _ in dec.hulls:
         assert len(hv) <= FAST.max_vertices
@@ -63,11 +63,11 @@ def test_hulls_are_capped_convex_and_cover_the_ring(ring, tmp_path):
 
 def test_corrupt_cache_entry_is_recomputed(ring, tmp_path):
     v, f = ring
-    key = mesh_key(v, f, FAST)
+    key = mesh_key((v, f), FAST)
     (tmp_path / f"{key}.npz").write_bytes(b"not a zip")
-    dec = decompose(v, f, FAST, cache_dir=tmp_path)
+    dec = decompose((v, f), FAST, cache_dir=tmp_path)
     assert not dec.cache_hit and dec.n_hulls >= 2
-    assert decompose(v, f, FAST, cache_dir=tmp_path).cache_hit
+    assert decompose((v, f), FAST, cache_dir=tmp_path).cache_hit
 
 
 def test_cap_hull_caps_and_orients():
@@ -105,8 +105,8 @@ def test_object_spec_mass_inertia_free_joint_and_mjx():
 
 def test_bad_input_raises():
     with pytest.raises(ShapeError):
-        decompose(np.zeros((10, 2)), np.zeros((4, 3), int), use_cache=False)
+        decompose((np.zeros((10, 2)), np.zeros((4, 3), int)), use_cache=False)
     with pytest.raises(ShapeError):
-        decompose(np.zeros((10, 3)), np.full((4, 3), 99), use_cache=False)
+        decompose((np.zeros((10, 3)), np.full((4, 3), 99)), use_cache=False)
     with pytest.raises(ConfigError):
         DecomposeConfig(max_vertices=3)

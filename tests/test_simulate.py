@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import importlib
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -12,14 +12,17 @@ import trimesh
 
 from symjax import grasp, hands
 from symjax.errors import EmptyInputError, InvalidInputError, UnknownNameError
-from symjax.grasp.candidates import Candidates
+from symjax.execution import ExecutionConfig
+from symjax.geometry import euler_zyx, rot_zyx
+from symjax.grasp import schedule
+from symjax.grasp.candidate_set import Candidates
 from symjax.grasp.config import CandidateConfig
-from symjax.grasp.plan import plan, rank
+from symjax.grasp.labels import labels
+from symjax.grasp.planner import plan, rank
 from symjax.grasp.sim_config import SimulationConfig
 from symjax.table import TablePlane
 
 # symjax.grasp.simulate is also the function's name; this is the module.
-sim = importlib.import_module("symjax.grasp.simulate")
 SMALL = CandidateConfig(n_approach=6, distances=(0.05,), n_rays=24, n_rolls=4)
 TOP = 5
 
@@ -66,7 +69,7 @@ def test_top_ranked_grasps_succeed(objects, hand_models, hand_name, object_name)
     v, f = objects[object_name]
     hand = hand_models[hand_name]
     for method in grasp.METHODS:
-        p = plan((v, f), hand, method, hulls=[(v, f)], candidate_config=SMALL,
+        p = plan((v, f), hand, method, hulls=[(v, f)], candidates=SMALL,
                  backend="mujoco")  # fmt: skip
         o = p.outcomes.numpy()
         assert len(p) >= 3, (method, len(p))
@@ -85,7 +88,7 @@ def test_top_ranked_grasps_succeed(objects, hand_models, hand_name, object_name)
 def test_grasps_from_below_or_beside_fail(objects, hand_models, hand_name):
     v, f = objects["cylinder"]
     hand = hand_models[hand_name]
-    out = sim.simulate([(v, f)], _bad_candidates(np.array([0.5, 0.0, 0.075])), hand,
+    out = grasp.simulate([(v, f)], _bad_candidates(np.array([0.5, 0.0, 0.075])), hand,
                        backend="mujoco").numpy()  # fmt: skip
     assert not out.success.any()
     assert np.all(out.start_penetration[:2] > 0.005)  # the hand starts inside the table
@@ -98,7 +101,7 @@ def agreement_batch(objects, hand_models):
     v, f = objects["cylinder"]
     hand = hand_models["sdh"]
     table = TablePlane.horizontal(0.0)
-    parts = [grasp.generate(m, v, f, config=SMALL, table=table, hand=hand).candidates
+    parts = [grasp.generate((v, f), m, config=SMALL, table=table, hand=hand).candidates
              for m in grasp.METHODS]  # fmt: skip
     good = jax.tree_util.tree_map(lambda *xs: np.concatenate(xs), *parts)
     rng = np.random.default_rng(0)
@@ -111,9 +114,12 @@ def agreement_batch(objects, hand_models):
 def test_mjx_agrees_with_mujoco(agreement_batch, hand_models):
     (v, f), cands = agreement_batch
     hand = hand_models["sdh"]
-    scene = sim.build_scene([(v, f)], hand, SimulationConfig(chunk_size=32))
-    mj = sim.simulate(None, cands, hand, backend="mujoco", scene=scene).numpy()
-    mx = sim.simulate(None, cands, hand, backend="mjx", scene=scene).numpy()
+    scene = grasp.build_scene([(v, f)], hand, SimulationConfig())
+    mj = grasp.simulate(None, cands, hand, backend="mujoco", scene=scene).numpy()
+    mx = grasp.simulate(
+        None, cands, hand, backend="mjx", scene=scene,
+        execution=ExecutionConfig(simulation_chunk=32),
+    ).numpy()  # fmt: skip
     assert mx.backend == "mjx" and mj.backend == "mujoco"
     assert len(mx) == len(mj) == 32
     agree = (mx.success == mj.success).mean()
@@ -140,10 +146,10 @@ def test_diverging_rollout_is_labelled_failed(objects, hand_models):
     v, f = objects["cylinder"]
     hand = hand_models["barrett"]
     unstable = SimulationConfig(timestep=0.02, base_kp_rot=1e7, base_kv=1e6, base_force=1e7)
-    cands = grasp.generate("uji", v, f, config=SMALL, table=TablePlane.horizontal(0.0),
+    cands = grasp.generate((v, f), "uji", config=SMALL, table=TablePlane.horizontal(0.0),
                            hand=hand).candidates  # fmt: skip
     cands = jax.tree_util.tree_map(lambda x: x[:4], cands)
-    out = sim.simulate([(v, f)], cands, hand, unstable, backend="mujoco").numpy()
+    out = grasp.simulate([(v, f)], cands, hand, unstable, backend="mujoco").numpy()
     assert out.diverged.all()
     assert not out.success.any() and not out.force_closure.any()
     for name in ("epsilon", "penetration", "travel", "lift"):
@@ -154,15 +160,15 @@ def test_nan_states_give_clean_failed_labels(objects, hand_models):
     """The label kernel shared by both backends turns NaN states into failed, finite rows."""
     v, f = objects["cylinder"]
     hand = hand_models["barrett"]
-    scene = sim.build_scene([(v, f)], hand)
+    scene = grasp.build_scene([(v, f)], hand)
     cands = _bad_candidates(np.array([0.5, 0.0, 0.075]))
-    params = {k: jnp.asarray(x) for k, x in sim._params(scene, cands).items()}
+    params = {k: jnp.asarray(x) for k, x in schedule.candidate_params(scene, cands).items()}
     nq = scene.model.nq
     q = jnp.full((4, nq), jnp.nan)
     C = 8
     con = (jnp.full((4, C), jnp.nan), jnp.zeros((4, C, 3)), jnp.zeros((4, C, 3)),
            jnp.zeros((4, C), jnp.int32), jnp.zeros((4, C), jnp.int32))  # fmt: skip
-    out = sim._labels_fn(scene)(params, q, q, q, jnp.zeros(4, bool), con, con)
+    out = jax.jit(jax.vmap(functools.partial(labels, scene)))(params, q, q, q, jnp.zeros(4, bool), con, con)
     assert np.all(np.asarray(out["diverged"]))
     assert not np.any(np.asarray(out["success"]))
     for name in ("epsilon", "penetration", "travel", "lift"):
@@ -171,7 +177,7 @@ def test_nan_states_give_clean_failed_labels(objects, hand_models):
 
 def test_rank_orders_success_then_quality():
     """By success: [2, 1] succeeded (2 has the larger epsilon); by quality: epsilon alone."""
-    o = sim.GraspOutcomes(
+    o = grasp.GraspOutcomes(
         success=np.array([False, True, True, False]),
         force_closure=np.array([True, True, True, False]),
         epsilon=np.array([0.3, 0.1, 0.2, 0.0]),
@@ -192,25 +198,25 @@ def test_bad_input_raises(objects, hand_models):
     hand = hand_models["barrett"]
     cands = _bad_candidates(np.array([0.5, 0.1, 0.05]))
     with pytest.raises(UnknownNameError):
-        sim.simulate([(v, f)], cands, hand, backend="physx")
+        grasp.simulate([(v, f)], cands, hand, backend="physx")
     empty = jax.tree_util.tree_map(lambda x: x[:0], cands)
     with pytest.raises(EmptyInputError):
-        sim.simulate([(v, f)], empty, hand, backend="mujoco")
+        grasp.simulate([(v, f)], empty, hand, backend="mujoco")
     nan = Candidates(
         approach=cands.approach, point=np.full_like(cands.point, np.nan), roll=cands.roll,
         preshape=cands.preshape, distance=cands.distance,
     )  # fmt: skip
     with pytest.raises(InvalidInputError):
-        sim.simulate([(v, f)], nan, hand, backend="mujoco")
+        grasp.simulate([(v, f)], nan, hand, backend="mujoco")
     bad_pre = Candidates(
         approach=cands.approach, point=cands.point, roll=cands.roll,
         preshape=np.full(4, 7, np.int32), distance=cands.distance,
     )  # fmt: skip
     with pytest.raises(InvalidInputError):
-        sim.simulate([(v, f)], bad_pre, hand, backend="mujoco")
+        grasp.simulate([(v, f)], bad_pre, hand, backend="mujoco")
     with pytest.raises(InvalidInputError):
         SimulationConfig(timestep=-1.0)
-    assert sim.default_backend() in sim.BACKENDS
+    assert grasp.default_backend() in grasp.BACKENDS
 
 
 def test_euler_round_trip_including_gimbal_lock():
@@ -220,7 +226,7 @@ def test_euler_round_trip_including_gimbal_lock():
     R = Rotation.random(64, random_state=0).as_matrix()
     lock = np.array([[[0.0, 0, 1], [0, 1, 0], [-1, 0, 0]], [[0.0, -1, 0], [0, 0, -1], [1, 0, 0]]])
     R = np.concatenate([R, lock])
-    back = np.asarray(sim._rot_zyx(sim._euler_zyx(jnp.asarray(R))))
+    back = np.asarray(rot_zyx(euler_zyx(jnp.asarray(R))))
     np.testing.assert_allclose(back, R.astype(np.float32), atol=1e-5)
 
 
@@ -228,10 +234,10 @@ def test_gravity_switches_on_after_the_closure_test(objects, hand_models):
     """The schedule cancels the object's weight until the end of settle, then lets it act."""
     v, f = objects["box"]
     hand = hand_models["barrett"]
-    scene = sim.build_scene([(v, f)], hand)
+    scene = grasp.build_scene([(v, f)], hand)
     cfg = scene.config
     A, C, S, L, K = cfg.phase_steps
-    p = {k: jnp.asarray(x[0]) for k, x in sim._params(scene, _bad_candidates(
+    p = {k: jnp.asarray(x[0]) for k, x in schedule.candidate_params(scene, _bad_candidates(
         np.array([0.5, 0.1, 0.06]))).items()}  # fmt: skip
     weight = scene.mass * 9.81
     for k, expected in (
@@ -240,12 +246,12 @@ def test_gravity_switches_on_after_the_closure_test(objects, hand_models):
         (A + C + S, 0.0),
         (cfg.n_steps - 1, 0.0),
     ):
-        _, qfrc, _ = sim._control(scene, k, p)
+        _, qfrc, _ = schedule.control(scene, k, p)
         qfrc = np.asarray(qfrc)
         np.testing.assert_allclose(qfrc[scene.dadr_object + 2], expected, rtol=1e-5)
         assert np.count_nonzero(qfrc) == (expected > 0)
-    off = sim.build_scene([(v, f)], hand, SimulationConfig(gravity_after_closure=False))
-    _, qfrc, _ = sim._control(off, 0, p)
+    off = grasp.build_scene([(v, f)], hand, SimulationConfig(gravity_after_closure=False))
+    _, qfrc, _ = schedule.control(off, 0, p)
     assert not np.any(np.asarray(qfrc))
     # The MJX contact caps land in the model as MJX's numeric settings.
     names = [scene.model.numeric(i).name for i in range(scene.model.nnumeric)]

@@ -20,7 +20,8 @@ from scipy.spatial import ConvexHull, QhullError
 from symjax import resources
 from symjax._atomic import atomic_write_bytes
 from symjax.decompose.config import DecomposeConfig
-from symjax.errors import DegenerateGeometryError, EmptyInputError, FileFormatError, ShapeError
+from symjax.errors import DegenerateGeometryError, FileFormatError
+from symjax.geometry import mesh_arrays
 
 __all__ = ["Decomposition", "cap_hull", "decompose", "default_cache_dir", "mesh_key"]
 
@@ -54,26 +55,10 @@ def default_cache_dir() -> Path:
     return resources.cache_dir("coacd")
 
 
-def _check_mesh(vertices: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
-    v = np.ascontiguousarray(vertices, dtype=np.float64)
-    f = np.ascontiguousarray(faces, dtype=np.int64)
-    if v.ndim != 2 or v.shape[1] != 3:
-        raise ShapeError(f"vertices must have shape (V, 3), got {v.shape}")
-    if f.ndim != 2 or f.shape[1] != 3:
-        raise ShapeError(f"faces must have shape (F, 3), got {f.shape}")
-    if len(v) < 4 or len(f) < 4:
-        raise EmptyInputError(f"a mesh needs >= 4 vertices and faces, got {len(v)}, {len(f)}")
-    if not np.all(np.isfinite(v)):
-        raise DegenerateGeometryError("mesh vertices contain NaN or inf")
-    if f.min() < 0 or f.max() >= len(v):
-        raise ShapeError(f"face indices must lie in [0, {len(v)}), got [{f.min()}, {f.max()}]")
-    return v, f
-
-
-def mesh_key(vertices: Any, faces: Any, config: DecomposeConfig | None = None) -> str:
+def mesh_key(mesh: Any, config: DecomposeConfig | None = None) -> str:
     """SHA-256 of the mesh (float64 vertices, int64 faces) and the settings."""
     config = config if config is not None else DecomposeConfig()
-    v, f = _check_mesh(vertices, faces)
+    v, f = mesh_arrays(mesh)
     h = hashlib.sha256()
     h.update(_CACHE_VERSION.encode())
     h.update(repr(dataclasses.astuple(config)).encode())
@@ -156,8 +141,7 @@ def _save(path: Path, hulls) -> None:
 
 
 def decompose(
-    vertices: Any,
-    faces: Any,
+    mesh: Any,
     config: DecomposeConfig | None = None,
     cache_dir: str | os.PathLike | None = None,
     use_cache: bool = True,
@@ -165,8 +149,7 @@ def decompose(
     """Splits a triangle mesh into capped convex hulls with coacd, cached on disk.
 
     Args:
-        vertices: Mesh vertices, shape (V, 3), metres.
-        faces: Triangles, shape (F, 3), int.
+        mesh: A ``trimesh.Trimesh`` or ``(vertices (V, 3), faces (F, 3))``, metres.
         config: coacd settings and the vertex cap (default :class:`DecomposeConfig`).
         cache_dir: Cache folder (default :func:`default_cache_dir`). Entries are named by
             :func:`mesh_key`, written atomically; a corrupt entry is recomputed.
@@ -177,8 +160,8 @@ def decompose(
     """
     t0 = time.perf_counter()
     config = config if config is not None else DecomposeConfig()
-    v, f = _check_mesh(vertices, faces)
-    key = mesh_key(v, f, config)
+    v, f = mesh_arrays(mesh)
+    key = mesh_key((v, f), config)
     path = Path(cache_dir if cache_dir is not None else default_cache_dir()) / f"{key}.npz"
     if use_cache and path.is_file():
         try:

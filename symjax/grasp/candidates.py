@@ -24,220 +24,28 @@ dropped and counted.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
-from symjax._pytree import pytree_dataclass
 from symjax.errors import (
     DegenerateGeometryError,
-    EmptyInputError,
     InvalidInputError,
     ShapeError,
+    config_or_default,
     unknown_name,
 )
+from symjax.geometry import bucket, mesh_arrays, pad_rows
+from symjax.grasp.approach import approach_frame, rolls_for_axes
+from symjax.grasp.candidate_set import Candidates, CandidateSet
 from symjax.grasp.config import CandidateConfig
+from symjax.grasp.mesh_rays import cast_rays, inside_mesh
 
-__all__ = [
-    "METHODS",
-    "CandidateSet",
-    "Candidates",
-    "approach_frame",
-    "generate",
-    "inside_mesh",
-    "kth_grasp_points",
-    "ray_mesh",
-    "roll_for_axis",
-]
+__all__ = ["METHODS", "generate", "kth_grasp_points"]
 
 METHODS = ("openrave", "kth", "uji")
-
-
-@pytree_dataclass
-class Candidates:
-    """A batch of N grasp candidates (every field's leading axis is N).
-
-    Attributes:
-        approach: Unit approach vectors, shape (N, 3); the hand moves along them.
-        point: Grasp points, shape (N, 3), metres, world frame.
-        roll: Roll about the approach, shape (N,), radians (see :func:`approach_frame`).
-        preshape: Pre-shape indices into ``symjax.hands.PRESHAPES``, shape (N,), int32.
-        distance: Approach distance, shape (N,), metres: the TCP starts at
-            ``point - distance * approach``.
-    """
-
-    approach: Any
-    point: Any
-    roll: Any
-    preshape: Any
-    distance: Any
-
-    def __len__(self) -> int:
-        return int(np.shape(self.roll)[0])
-
-    def frames(self):
-        """TCP orientations, shape (N, 3, 3): columns are closing axis, y, approach."""
-        return jax.vmap(approach_frame)(jnp.asarray(self.approach), jnp.asarray(self.roll))
-
-    def start_positions(self):
-        """TCP start positions ``point - distance * approach``, shape (N, 3), metres."""
-        return self.point - self.distance[:, None] * self.approach
-
-
-@dataclasses.dataclass(frozen=True)
-class CandidateSet:
-    """Output of :func:`generate`.
-
-    Attributes:
-        candidates: The kept candidates.
-        method: The generator used.
-        n_generated: Candidates before the start-pose check.
-        n_dropped_table: Dropped because the hand started in (or under) the table.
-        n_dropped_object: Dropped because the hand started inside the object.
-        n_missed: ``"openrave"`` rays that missed the object (no candidate made).
-        seconds: Wall time of the call.
-    """
-
-    candidates: Candidates
-    method: str
-    n_generated: int
-    n_dropped_table: int
-    n_dropped_object: int
-    n_missed: int
-    seconds: float
-
-    def __len__(self) -> int:
-        return len(self.candidates)
-
-
-def _reference_axes(a):
-    """Two unit vectors spanning the plane normal to unit ``a``: world z projected, then a x z."""
-    ref = jnp.where(jnp.abs(a[2]) < 0.99, jnp.array([0.0, 0.0, 1.0]), jnp.array([1.0, 0.0, 0.0]))
-    e1 = ref - jnp.dot(ref, a) * a
-    e1 = e1 / jnp.linalg.norm(e1)
-    return e1, jnp.cross(a, e1)
-
-
-def approach_frame(approach, roll):
-    """TCP orientation of one candidate, shape (3, 3).
-
-    The z column is ``approach``; the x column (closing axis) is ``cos(roll) e1 + sin(roll) e2``
-    with ``e1`` the world z axis (world x if the approach is vertical) projected normal to the
-    approach and ``e2 = approach x e1``.
-
-    Args:
-        approach: Unit vector, shape (3,).
-        roll: Radians, scalar.
-    """
-    a = approach / jnp.linalg.norm(approach)
-    e1, e2 = _reference_axes(a)
-    x = jnp.cos(roll) * e1 + jnp.sin(roll) * e2
-    return jnp.stack([x, jnp.cross(a, x), a], axis=-1)
-
-
-def roll_for_axis(approach, axis):
-    """The roll that points the closing axis along ``axis`` (projected normal to the approach)."""
-    a = approach / jnp.linalg.norm(approach)
-    e1, e2 = _reference_axes(a)
-    return jnp.arctan2(jnp.dot(axis, e2), jnp.dot(axis, e1))
-
-
-def _ray_triangles(origin, direction, triangles, t_min: float):
-    """Moller-Trumbore for one ray against every triangle (T, 3, 3).
-
-    Returns:
-        ``(t, hit)``, each (T,): ray parameter and whether the ray hits the triangle at
-        ``t > t_min``.
-    """
-    v0, v1, v2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
-    e1, e2 = v1 - v0, v2 - v0
-    p = jnp.cross(direction, e2)
-    det = jnp.sum(e1 * p, axis=-1)
-    ok = jnp.abs(det) > 1e-12
-    inv = jnp.where(ok, 1.0 / jnp.where(ok, det, 1.0), 0.0)
-    s = origin - v0
-    u = jnp.sum(s * p, axis=-1) * inv
-    q = jnp.cross(s, e1)
-    v = (q @ direction) * inv
-    t = jnp.sum(e2 * q, axis=-1) * inv
-    return t, ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
-
-
-def ray_mesh(origin, direction, triangles):
-    """First hit of one ray with a triangle soup (Moller-Trumbore).
-
-    Args:
-        origin: Shape (3,). direction: shape (3,), need not be unit.
-        triangles: Shape (T, 3, 3), vertices of each triangle.
-
-    Returns:
-        ``(t, index)``: ray parameter of the nearest hit with ``t > 0`` (``inf`` if none) and
-        the triangle index (-1 if none).
-    """
-    t, hit = _ray_triangles(origin, direction, triangles, t_min=1e-9)
-    t = jnp.where(hit, t, jnp.inf)
-    i = jnp.argmin(t)
-    return t[i], jnp.where(jnp.isfinite(t[i]), i, -1)
-
-
-def _crossings(point, triangles):
-    # A direction no mesh edge or face is likely to be aligned with.
-    d = jnp.array([0.5773503, 0.5773502, 0.5773504]) + jnp.array([1e-3, -2e-3, 3e-3])
-    _, hit = _ray_triangles(point, d, triangles, t_min=0.0)
-    return jnp.sum(hit)
-
-
-@jax.jit
-def _rays_jit(origins, directions, triangles):
-    return jax.lax.map(
-        lambda od: ray_mesh(od[0], od[1], triangles), (origins, directions), batch_size=64
-    )
-
-
-@jax.jit
-def _inside_jit(points, triangles):
-    n = jax.lax.map(lambda p: _crossings(p, triangles), points, batch_size=128)
-    return n % 2 == 1
-
-
-def _bucket(n: int) -> int:
-    # Pad batches to powers of two so that repeated calls reuse a few compiled programs.
-    return max(64, 1 << (int(n) - 1).bit_length())
-
-
-def _pad(x: np.ndarray, n: int) -> np.ndarray:
-    return np.concatenate([x, np.repeat(x[-1:], n - len(x), axis=0)]) if n > len(x) else x
-
-
-def inside_mesh(points: Any, vertices: Any, faces: Any) -> np.ndarray:
-    """Whether points lie inside a closed triangle mesh (ray parity), shape (P,) bool."""
-    pts = np.asarray(points, dtype=np.float32).reshape(-1, 3)
-    tri = np.asarray(vertices, dtype=np.float32)[np.asarray(faces)]
-    out = np.zeros(len(pts), dtype=bool)
-    lo, hi = tri.reshape(-1, 3).min(0), tri.reshape(-1, 3).max(0)
-    cand = np.flatnonzero(np.all((pts >= lo) & (pts <= hi), axis=1))
-    if len(cand):
-        res = _inside_jit(_pad(pts[cand], _bucket(len(cand))), tri)
-        out[cand] = np.asarray(res)[: len(cand)]
-    return out
-
-
-def _check_mesh(vertices: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
-    v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces)
-    if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
-        raise ShapeError(f"mesh must be vertices (V, 3) and faces (F, 3), got {v.shape}, {f.shape}")
-    if len(v) < 4 or len(f) < 4:
-        raise EmptyInputError(f"mesh too small: {len(v)} vertices, {len(f)} faces")
-    if not np.all(np.isfinite(v)):
-        raise DegenerateGeometryError("mesh vertices contain NaN or inf")
-    if not np.issubdtype(f.dtype, np.integer) or f.min() < 0 or f.max() >= len(v):
-        raise ShapeError("faces must be integer indices into vertices")
-    return v, f.astype(np.int64)
 
 
 def _centroid_and_axes(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -272,25 +80,27 @@ def _semicircle(normal: np.ndarray, n: int, fallback: np.ndarray) -> np.ndarray:
     return np.cos(th)[:, None] * b1 + np.sin(th)[:, None] * b2
 
 
-def kth_grasp_points(vertices: Any, faces: Any) -> np.ndarray:
+def kth_grasp_points(mesh: Any) -> np.ndarray:
     """Two opposing grasp points: a geometric stand-in for the learned detector of [18].
 
     The points are where the line through the centroid along the object's narrowest horizontal
     direction leaves the mesh, so a pinch between them closes across the object's width.
 
+    Args:
+        mesh: A closed ``trimesh.Trimesh`` or ``(vertices (V, 3), faces (F, 3))``, metres.
+
     Returns:
         Shape (2, 3), metres.
     """
-    v, f = _check_mesh(vertices, faces)
+    v, f = mesh_arrays(mesh)
     c, _ = _centroid_and_axes(v, f)
     xy = v[:, :2] - c[:2]
     w, vecs = np.linalg.eigh(xy.T @ xy)
     u = np.r_[vecs[:, 0], 0.0]
-    tri = v[f].astype(np.float32)
     far = float(np.ptp(v, axis=0).max()) * 2 + 0.1
     origins = np.stack([c + far * u, c - far * u]).astype(np.float32)
     dirs = np.stack([-u, u]).astype(np.float32)
-    t, idx = (np.asarray(x) for x in _rays_jit(origins, dirs, tri))
+    t, _ = cast_rays(origins, dirs, (v, f))
     if not np.all(np.isfinite(t)):
         raise DegenerateGeometryError("no surface found across the centroid")
     return origins + t[:, None] * dirs
@@ -324,12 +134,7 @@ def _openrave(v, f, config: CandidateConfig, rng: np.random.Generator):
         sel = pick == k
         origins[sel, ax] = hi[ax] if side else lo[ax]
         dirs[sel, ax] = -1.0 if side else 1.0
-    tri = v[f].astype(np.float32)
-    nb = _bucket(config.n_rays)
-    t, idx = (np.asarray(x) for x in _rays_jit(
-        _pad(origins.astype(np.float32), nb), _pad(dirs.astype(np.float32), nb), tri
-    ))  # fmt: skip
-    t, idx = t[: config.n_rays], idx[: config.n_rays]
+    t, idx = cast_rays(origins, dirs, (v, f))
     hit = np.isfinite(t)
     p = origins[hit] + t[hit, None] * dirs[hit]
     a, b, c = (v[f[idx[hit], k]] for k in range(3))
@@ -346,7 +151,7 @@ def _openrave(v, f, config: CandidateConfig, rng: np.random.Generator):
 
 
 def _kth(v, f, config: CandidateConfig, grasp_points):
-    g = kth_grasp_points(v, f) if grasp_points is None else np.asarray(grasp_points, float)
+    g = kth_grasp_points((v, f)) if grasp_points is None else np.asarray(grasp_points, float)
     if g.shape != (2, 3) or not np.all(np.isfinite(g)):
         raise ShapeError(f"grasp_points must be two finite points, shape (2, 3), got {g.shape}")
     u = g[1] - g[0]
@@ -355,7 +160,7 @@ def _kth(v, f, config: CandidateConfig, grasp_points):
     u /= np.linalg.norm(u)
     d = _semicircle(u, config.n_approach, np.array([1.0, 0.0, 0.0]))
     approach = -d
-    roll = np.asarray(jax.vmap(roll_for_axis, (0, None))(jnp.asarray(approach), jnp.asarray(u)))
+    roll = rolls_for_axes(approach, u)
     point = np.repeat(g.mean(0)[None], len(d), axis=0)
     return approach, point, roll
 
@@ -373,7 +178,7 @@ def _uji(v, f, config: CandidateConfig):
     closing2 = np.repeat(n2[None], len(d2), axis=0)
     approach = np.concatenate([a1, a2])
     closing = np.concatenate([closing1, closing2])
-    roll = np.asarray(jax.vmap(roll_for_axis)(jnp.asarray(approach), jnp.asarray(closing)))
+    roll = rolls_for_axes(approach, closing)
     point = np.repeat(c[None], len(approach), axis=0)
     return approach, point, roll
 
@@ -388,9 +193,8 @@ def _probe_world(approach, point, roll, distance, probes):
 
 
 def generate(
+    mesh: Any,
     method: str,
-    vertices: Any,
-    faces: Any,
     *,
     config: CandidateConfig | None = None,
     table: Any = None,
@@ -401,9 +205,9 @@ def generate(
     """Grasp candidates for one object mesh (``GetGraspCandidates``).
 
     Args:
+        mesh: The object, a ``trimesh.Trimesh`` or ``(vertices (V, 3), faces (F, 3))``, metres,
+            world frame (table-aligned); it should be closed for the inside test.
         method: ``"openrave"``, ``"kth"`` or ``"uji"`` (see the module docstring).
-        vertices: Object mesh vertices, shape (V, 3), metres, world frame (table-aligned).
-        faces: Triangles, shape (F, 3); the mesh should be closed for the inside test.
         config: Counts, distances and pre-shapes (default :class:`CandidateConfig`).
         table: A :class:`symjax.table.TablePlane`; None skips the table check.
         hand: A :class:`symjax.hands.Hand`; its geometry at each pre-shape is the start-pose
@@ -418,10 +222,10 @@ def generate(
         distances).
     """
     t0 = time.perf_counter()
-    config = config if config is not None else CandidateConfig()
+    config = config_or_default(config, CandidateConfig)
     if method not in METHODS:
         raise unknown_name("candidate method", method, METHODS)
-    v, f = _check_mesh(vertices, faces)
+    v, f = mesh_arrays(mesh)
     if grasp_points is not None and method != "kth":
         raise InvalidInputError("grasp_points only applies to method 'kth'")
     n_missed = 0
@@ -441,7 +245,11 @@ def generate(
             from symjax.hands import probe_points
 
             if max(config.preshapes) >= len(hand.preshape_names):
-                raise InvalidInputError(f"pre-shape index out of range for hand {hand.name}")
+                raise InvalidInputError(
+                    f"pre-shape index {max(config.preshapes)} is out of range for the hand"
+                    f" {hand.name}: expected 0 to {len(hand.preshape_names) - 1}"
+                    f" ({', '.join(hand.preshape_names)})"
+                )
             probes = {p: probe_points(hand, p) for p in set(config.preshapes)}
         else:
             o = config.palm_offset
@@ -453,15 +261,18 @@ def generate(
         object_bad = np.zeros(n, dtype=bool)
         for p, local in probes.items():
             sel = np.flatnonzero(cands.preshape == p)
+            nb = bucket(len(sel), minimum=64)
             world = np.asarray(_probe_world(
-                jnp.asarray(cands.approach[sel]), jnp.asarray(cands.point[sel]),
-                jnp.asarray(cands.roll[sel]), jnp.asarray(cands.distance[sel]),
-                jnp.asarray(local),
-            ))  # fmt: skip
+                pad_rows(cands.approach[sel].astype(np.float32), nb),
+                pad_rows(cands.point[sel].astype(np.float32), nb),
+                pad_rows(cands.roll[sel].astype(np.float32), nb),
+                pad_rows(cands.distance[sel].astype(np.float32), nb),
+                np.asarray(local, np.float32),
+            ))[: len(sel)]  # fmt: skip
             if table is not None:
                 h = world @ np.asarray(table.normal) + float(table.offset)
                 table_bad[sel] = np.any(h < config.table_clearance, axis=1)
-            inside = inside_mesh(world.reshape(-1, 3), v, f).reshape(world.shape[:2])
+            inside = inside_mesh(world.reshape(-1, 3), (v, f)).reshape(world.shape[:2])
             object_bad[sel] = np.any(inside, axis=1)
         drop_table = int(table_bad.sum())
         object_bad &= ~table_bad

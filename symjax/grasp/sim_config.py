@@ -72,8 +72,6 @@ class SimulationConfig:
             without a cap the solver works on thousands of mostly empty rows. C MuJoCo ignores it.
         mjx_max_pairs: MJX runs each collision function on at most this many geom pairs per
             geom-type group, the nearest by bounding sphere (``max_geom_pairs``); None: all.
-        chunk_size: Candidates per jitted MJX call; larger batches are split.
-        nthread: C MuJoCo threads (None: all cores).
     """
 
     timestep: float = 0.002
@@ -109,8 +107,6 @@ class SimulationConfig:
     finger_torsion: float = 0.01
     mjx_max_contacts: int | None = 32
     mjx_max_pairs: int | None = 16
-    chunk_size: int = 512
-    nthread: int | None = None
 
     def __post_init__(self):
         positive = (
@@ -133,16 +129,17 @@ class SimulationConfig:
             raise ConfigError("iterations and ls_iterations must be >= 1")
         if self.n_edges < 3:
             raise ConfigError(f"n_edges must be >= 3, got {self.n_edges}")
-        if self.max_contacts < 1 or self.chunk_size < 1 or self.shake_cycles < 0:
-            raise ConfigError("max_contacts and chunk_size must be >= 1, shake_cycles >= 0")
+        if self.max_contacts < 1 or self.shake_cycles < 0:
+            raise ConfigError(
+                f"max_contacts must be >= 1 and shake_cycles >= 0, got {self.max_contacts},"
+                f" {self.shake_cycles}"
+            )
         if self.object_mass is not None and not self.object_mass > 0:
             raise ConfigError(f"object_mass must be positive, got {self.object_mass}")
         for name in ("mjx_max_contacts", "mjx_max_pairs"):
             v = getattr(self, name)
             if v is not None and not (isinstance(v, int) and v >= 1):
                 raise ConfigError(f"{name} must be None or an integer >= 1, got {v!r}")
-        if self.nthread is not None and self.nthread < 1:
-            raise ConfigError(f"nthread must be >= 1, got {self.nthread}")
 
     def _steps(self, seconds: float) -> int:
         return max(1, int(round(seconds / self.timestep)))

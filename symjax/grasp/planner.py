@@ -10,11 +10,16 @@ import jax
 import numpy as np
 
 from symjax.errors import EmptyInputError, unknown_name
-from symjax.grasp.candidates import Candidates, CandidateSet, generate
+from symjax.execution import ExecutionConfig
+from symjax.geometry import mesh_arrays
+from symjax.grasp.backends import default_backend
+from symjax.grasp.candidate_set import Candidates, CandidateSet
+from symjax.grasp.candidates import generate
 from symjax.grasp.config import CandidateConfig
 from symjax.grasp.outcomes import GraspOutcomes
+from symjax.grasp.rollout import simulate
+from symjax.grasp.scene import build_scene
 from symjax.grasp.sim_config import SimulationConfig
-from symjax.grasp.simulate import build_scene, default_backend, simulate
 
 __all__ = ["RANKINGS", "GraspPlan", "plan", "rank"]
 
@@ -80,14 +85,15 @@ def rank(outcomes: GraspOutcomes, by: str = "success") -> np.ndarray:
 
 
 def plan(
-    obj: tuple[Any, Any],
+    mesh: Any,
     hand: Any,
     method: str = "uji",
     *,
     hulls: Any = None,
     table: Any = None,
-    candidate_config: CandidateConfig | None = None,
-    sim_config: SimulationConfig | None = None,
+    candidates: CandidateConfig | None = None,
+    simulation: SimulationConfig | None = None,
+    execution: ExecutionConfig | None = None,
     backend: str | None = None,
     grasp_points: Any = None,
     seed: int = 0,
@@ -95,16 +101,17 @@ def plan(
     """Generates grasp candidates for an object, rolls them all out, and ranks them.
 
     Args:
-        obj: The object's closed mesh ``(vertices (V, 3), faces (F, 3))``, world frame, metres
-            (completed by symmetry, or ground truth).
+        mesh: The object's closed mesh, a ``trimesh.Trimesh`` or ``(vertices (V, 3), faces
+            (F, 3))``, world frame, metres (completed by symmetry, or ground truth).
         hand: A :class:`symjax.hands.Hand`.
         method: Candidate generator (``"openrave"``, ``"kth"``, ``"uji"``).
         hulls: Convex hulls to simulate (a :class:`symjax.decompose.Decomposition` or a list
             of ``(vertices, faces)``); default: coacd decomposition of ``obj`` (cached).
         table: A horizontal :class:`symjax.table.TablePlane` or a height; default: the mesh's
             lowest point.
-        candidate_config: :class:`CandidateConfig` for the generator.
-        sim_config: :class:`SimulationConfig`.
+        candidates: :class:`CandidateConfig` for the generator.
+        simulation: :class:`SimulationConfig`.
+        execution: Chunk size and threads; no effect on the labels.
         backend: ``"mjx"``, ``"mujoco"`` or None (by device).
         grasp_points: ``"kth"`` grasp points, shape (2, 3).
         seed: Seed of the ``"openrave"`` sampling.
@@ -117,13 +124,13 @@ def plan(
     """
     from symjax.table import TablePlane
 
-    v, f = np.asarray(obj[0], float), np.asarray(obj[1])
+    v, f = mesh_arrays(mesh)
     t0 = time.perf_counter()
     if table is None:
-        table = float(v[:, 2].min()) if v.ndim == 2 and len(v) else 0.0
+        table = float(v[:, 2].min())
     plane = TablePlane.horizontal(float(table)) if isinstance(table, (int, float)) else table
     cs = generate(
-        method, v, f, config=candidate_config, table=plane, hand=hand,
+        (v, f), method, config=candidates, table=plane, hand=hand,
         grasp_points=grasp_points, seed=seed,
     )  # fmt: skip
     t1 = time.perf_counter()
@@ -132,11 +139,11 @@ def plan(
     if hulls is None:
         from symjax.decompose import decompose
 
-        hulls = decompose(v, f)
-    scene = build_scene(hulls, hand, sim_config, table=plane)
+        hulls = decompose((v, f))
+    scene = build_scene(hulls, hand, simulation, table=plane)
     t2 = time.perf_counter()
     backend = default_backend() if backend is None else backend
-    out = simulate(None, cs.candidates, hand, backend=backend, scene=scene)
+    out = simulate(None, cs.candidates, hand, backend=backend, scene=scene, execution=execution)
     t3 = time.perf_counter()
     order = rank(out)
     ranked = jax.tree_util.tree_map(lambda x: np.asarray(x)[order], cs.candidates)

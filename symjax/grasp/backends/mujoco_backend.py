@@ -1,0 +1,117 @@
+"""C MuJoCo rollout backend: :func:`mujoco.rollout.rollout`, multi-threaded; the control schedule
+and the labels are the same jitted JAX functions as the MJX backend's.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+
+from symjax.execution import ExecutionConfig
+from symjax.grasp.labels import labels
+from symjax.grasp.outcomes import GraspOutcomes
+from symjax.grasp.scene import GraspScene
+from symjax.grasp.schedule import control, snap_steps
+
+__all__ = ["run"]
+
+_MAX_C_CONTACTS = 64
+
+@functools.lru_cache(maxsize=8)
+def _schedule_fn(scene: GraspScene):
+    n = scene.config.n_steps
+
+    def one(p):
+        ctrl, qfrc, eq = jax.vmap(lambda k: control(scene, k, p))(jnp.arange(n))
+        # mjtState bit order: ctrl, qfrc_applied, ..., eq_active.
+        return jnp.concatenate([ctrl, qfrc, eq.astype(ctrl.dtype)], axis=-1)
+
+    return jax.jit(jax.vmap(one))
+
+
+@functools.lru_cache(maxsize=8)
+def _labels_fn(scene: GraspScene):
+    return jax.jit(jax.vmap(functools.partial(labels, scene)))
+
+
+def _c_contacts(m, d, qpos: np.ndarray) -> tuple[np.ndarray, ...]:
+    B = len(qpos)
+    dist = np.full((B, _MAX_C_CONTACTS), np.inf)
+    pos = np.zeros((B, _MAX_C_CONTACTS, 3))
+    nrm = np.zeros((B, _MAX_C_CONTACTS, 3))
+    nrm[..., 2] = 1.0
+    g1 = np.zeros((B, _MAX_C_CONTACTS), np.int32)
+    g2 = np.zeros((B, _MAX_C_CONTACTS), np.int32)
+    for i in range(B):
+        mujoco.mj_resetData(m, d)
+        d.qpos[:] = qpos[i] if np.all(np.isfinite(qpos[i])) else m.qpos0
+        mujoco.mj_forward(m, d)
+        c = d.contact
+        k = min(d.ncon, _MAX_C_CONTACTS)
+        if k:
+            order = np.argsort(c.dist[: d.ncon])[:k]  # the deepest when there are too many
+            dist[i, :k] = c.dist[order]
+            pos[i, :k] = c.pos[order]
+            nrm[i, :k] = c.frame[order, :3]
+            g1[i, :k] = c.geom1[order]
+            g2[i, :k] = c.geom2[order]
+    return dist, pos, nrm, g1, g2
+
+
+def run(
+    scene: GraspScene, params: dict[str, np.ndarray], execution: ExecutionConfig
+) -> GraspOutcomes:
+    """Rolls out and labels every candidate of ``params`` (see :mod:`symjax.grasp.backends`)."""
+    from mujoco import rollout
+
+    cfg, m = scene.config, scene.model
+    nthread = execution.simulation_threads or os.cpu_count() or 1
+    datas = [mujoco.MjData(m) for _ in range(nthread)]
+    d = datas[0]
+    full = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    spec = (
+        mujoco.mjtState.mjSTATE_CTRL
+        | mujoco.mjtState.mjSTATE_QFRC_APPLIED
+        | mujoco.mjtState.mjSTATE_EQ_ACTIVE
+    )
+    nstate = mujoco.mj_stateSize(m, full)
+    mujoco.mj_resetData(m, d)
+    template = np.empty(nstate)
+    mujoco.mj_getState(m, d, template, full)
+    q0 = 1  # the state starts with time, then qpos (mjtState bit order)
+    i_app, i_grasp, i_end = snap_steps(cfg)
+    n = len(params["travel"])
+    size = 128  # keeps the (batch, steps, state) trajectory buffer near 50 MB
+    sched = _schedule_fn(scene)
+    labels = _labels_fn(scene)
+    parts = []
+    for s in range(0, n, size):
+        chunk = {k: v[s : s + size] for k, v in params.items()}
+        B = len(chunk["travel"])
+        ctrl = np.asarray(sched({k: jnp.asarray(v) for k, v in chunk.items()}), np.float64)
+        init = np.repeat(template[None], B, axis=0)
+        init[:, q0 : q0 + m.nq] = chunk["qpos"]
+        state, _ = rollout.rollout(m, datas, init, ctrl, control_spec=spec)
+        qs = state[:, :, q0 : q0 + m.nq]
+        # C MuJoCo resets a diverging simulation (and its clock) instead of returning NaN.
+        t_end = state[:, -1, 0]
+        bad = ~np.all(np.isfinite(state), axis=(1, 2)) | (
+            np.abs(t_end - cfg.n_steps * cfg.timestep) > 0.5 * cfg.timestep
+        )
+        q_app, q_grasp, q_end = qs[:, i_app], qs[:, i_grasp], qs[:, i_end]
+        gc = _c_contacts(m, d, q_grasp)
+        sc = _c_contacts(m, d, chunk["qpos"])
+        out = labels(
+            {k: jnp.asarray(v) for k, v in chunk.items()},
+            jnp.asarray(q_app), jnp.asarray(q_grasp), jnp.asarray(q_end), jnp.asarray(bad),
+            tuple(jnp.asarray(x) for x in gc), tuple(jnp.asarray(x) for x in sc),
+        )  # fmt: skip
+        parts.append({k: np.asarray(v) for k, v in out.items()})
+    merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return GraspOutcomes(**merged, backend="mujoco")
+
