@@ -11,9 +11,10 @@ Usage: ``python scripts/bench_candidates.py [--out bench/results/candidates.json
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import json
 import platform
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -23,6 +24,7 @@ import trimesh
 
 from symjax import grasp, hands
 from symjax._atomic import atomic_write_json
+from symjax.cli.common import parse  # noqa: E402
 from symjax.decompose import DecomposeConfig, decompose
 from symjax.table import TablePlane
 
@@ -41,10 +43,18 @@ def objects() -> dict[str, trimesh.Trimesh]:
     return {"bottle": bottle, "box": box, "mug": mug, "sphere": sphere}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / "candidates.json"))
-    args = ap.parse_args()
+@dataclasses.dataclass(frozen=True)
+class Args:
+    """Options of this benchmark."""
+
+    config: str = "default"
+    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
+    out: str = str(ROOT / "bench" / "results" / "candidates.json")
+    """Where the JSON lines go."""
+
+
+def main(argv=None) -> int:
+    args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_candidates.py", __doc__)
     table = TablePlane.horizontal(0.0)
     hand = hands.load("sdh")
     cfg = DecomposeConfig()
@@ -52,13 +62,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as cache:
         for name, mesh in objects().items():
             v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces)
-            cold = decompose(v, f, cfg, cache_dir=cache)
-            hit = decompose(v, f, cfg, cache_dir=cache)
+            cold = decompose((v, f), cfg, cache_dir=cache)
+            hit = decompose((v, f), cfg, cache_dir=cache)
             for method in grasp.METHODS:
                 t0 = time.perf_counter()
-                grasp.generate(method, v, f, table=table, hand=hand)
+                grasp.generate((v, f), method, table=table, hand=hand)
                 first = time.perf_counter() - t0
-                s = grasp.generate(method, v, f, table=table, hand=hand)
+                s = grasp.generate((v, f), method, table=table, hand=hand)
                 row = {
                     "object": name,
                     "faces": int(len(f)),
@@ -85,4 +95,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -22,11 +22,11 @@ barrett] [--out bench/results/grasp.json]``
 
 from __future__ import annotations
 
-import argparse
-import importlib
+import dataclasses
 import json
 import os
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -36,13 +36,14 @@ import trimesh
 
 from symjax import grasp, hands
 from symjax._atomic import atomic_write_json
+
+# symjax.grasp.simulate is also the function's name; this is the module.
+from symjax.cli.common import parse  # noqa: E402
 from symjax.decompose import DecomposeConfig, decompose
+from symjax.execution import ExecutionConfig
 from symjax.grasp.config import CandidateConfig
 from symjax.grasp.sim_config import SimulationConfig
 from symjax.table import TablePlane
-
-# symjax.grasp.simulate is also the function's name; this is the module.
-sim = importlib.import_module("symjax.grasp.simulate")
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -57,7 +58,7 @@ def pool(v, f, hand, n: int) -> grasp.Candidates:
     """n candidates: all three generators' outputs, tiled in a fixed shuffled order."""
     cfg = CandidateConfig(n_approach=10, n_rays=512, n_rolls=4)
     table = TablePlane.horizontal(0.0)
-    parts = [grasp.generate(m, v, f, config=cfg, table=table, hand=hand).candidates
+    parts = [grasp.generate((v, f), m, config=cfg, table=table, hand=hand).candidates
              for m in grasp.METHODS]  # fmt: skip
     allc = jax.tree_util.tree_map(lambda *xs: np.concatenate(xs), *parts)
     idx = np.random.default_rng(0).permutation(len(allc))
@@ -71,35 +72,47 @@ def _take(c, n):
 
 def bench_mujoco(scene, cands, hand, n_steps):
     t0 = time.perf_counter()
-    sim.simulate(None, _take(cands, 8), hand, backend="mujoco", scene=scene)
+    grasp.simulate(None, _take(cands, 8), hand, backend="mujoco", scene=scene)
     warm = time.perf_counter() - t0
     t0 = time.perf_counter()
-    out = sim.simulate(None, cands, hand, backend="mujoco", scene=scene).numpy()
+    out = grasp.simulate(None, cands, hand, backend="mujoco", scene=scene).numpy()
     run = time.perf_counter() - t0
     return out, {"compile_s": warm, "run_s": run}
 
 
-def bench_mjx(scene, cands, hand):
-    chunk = scene.config.chunk_size
+def bench_mjx(scene, cands, hand, ex):
+    chunk = ex.simulation_chunk
     first = _take(cands, min(len(cands), chunk))
     t0 = time.perf_counter()
-    sim.simulate(None, first, hand, backend="mjx", scene=scene)
+    grasp.simulate(None, first, hand, backend="mjx", scene=scene, execution=ex)
     first_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    out = sim.simulate(None, cands, hand, backend="mjx", scene=scene).numpy()
+    out = grasp.simulate(None, cands, hand, backend="mjx", scene=scene, execution=ex).numpy()
     run = time.perf_counter() - t0
     n_chunks = -(-len(cands) // chunk)
     return out, {"compile_s": max(first_s - run / n_chunks, 0.0), "run_s": run}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 512, 4096])
-    ap.add_argument("--mjx-sizes", type=int, nargs="*", default=None,
-                    help="MJX batch sizes (default: all on a GPU, 64 on a CPU)")  # fmt: skip
-    ap.add_argument("--hands", nargs="+", default=["sdh", "barrett"])
-    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / "grasp.json"))
-    args = ap.parse_args()
+@dataclasses.dataclass(frozen=True)
+class Args:
+    """Options of this benchmark."""
+
+    config: str = "default"
+    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
+    sizes: tuple[int, ...] = (64, 512, 4096)
+    """Candidate batch sizes of the C MuJoCo rows."""
+    mjx_sizes: tuple[int, ...] | None = None
+    """Batch sizes of the MJX rows (None: the C MuJoCo sizes on a GPU, 64 on a CPU)."""
+    hands: tuple[str, ...] = ("sdh", "barrett")
+    """Hands to benchmark."""
+    out: str = str(ROOT / "bench" / "results" / "grasp.json")
+    """Where the JSON lines go."""
+    simulation: SimulationConfig = dataclasses.field(default_factory=SimulationConfig)
+    """The rollouts."""
+
+
+def main(argv=None) -> int:
+    args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_grasp.py", __doc__)
     gpu = jax.default_backend() == "gpu"
     mjx_sizes = args.mjx_sizes if args.mjx_sizes is not None else (args.sizes if gpu else [64])
     meta = {
@@ -111,7 +124,7 @@ def main() -> None:
     }
     v, f = mug()
     t0 = time.perf_counter()
-    hulls = decompose(v, f, DecomposeConfig(max_hulls=8, max_vertices=32))
+    hulls = decompose((v, f), DecomposeConfig(max_hulls=8, max_vertices=32))
     decompose_s = time.perf_counter() - t0
     rows = []
 
@@ -125,10 +138,11 @@ def main() -> None:
         hand = hands.load(hand_name)
         # Paper budget: 100 candidates, end to end, default backend, nothing warmed up.
         t0 = time.perf_counter()
-        cfg100 = SimulationConfig(chunk_size=128)
-        scene100 = sim.build_scene(hulls, hand, cfg100)
+        scene100 = grasp.build_scene(hulls, hand, args.simulation)
         c100 = pool(v, f, hand, 100)
-        out = sim.simulate(None, c100, hand, scene=scene100).numpy()
+        out = grasp.simulate(
+            None, c100, hand, scene=scene100, execution=ExecutionConfig(simulation_chunk=128)
+        ).numpy()
         emit({
             "case": "paper_budget", "hand": hand_name, "backend": out.backend, "n": 100,
             "seconds_total": time.perf_counter() - t0, "under_a_minute":
@@ -137,8 +151,9 @@ def main() -> None:
             "decompose_s": decompose_s,
         })  # fmt: skip
         for n in args.sizes:
-            cfg = SimulationConfig(chunk_size=min(n, 512))
-            scene = sim.build_scene(hulls, hand, cfg)
+            cfg = args.simulation
+            ex = ExecutionConfig(simulation_chunk=min(n, 512))
+            scene = grasp.build_scene(hulls, hand, cfg)
             cands = pool(v, f, hand, n)
             steps = cfg.n_steps
             ref, t = bench_mujoco(scene, cands, hand, steps)
@@ -156,10 +171,10 @@ def main() -> None:
             })  # fmt: skip
             if n not in mjx_sizes:
                 continue
-            out, t = bench_mjx(scene, cands, hand)
+            out, t = bench_mjx(scene, cands, hand, ex)
             emit({
                 "case": "rollout", "hand": hand_name, "backend": "mjx", "n": n,
-                "chunk": cfg.chunk_size, "compile_s": t["compile_s"], "run_s": t["run_s"],
+                "chunk": ex.simulation_chunk, "compile_s": t["compile_s"], "run_s": t["run_s"],
                 "candidates_per_s": n / t["run_s"], "env_steps_per_s": n * steps / t["run_s"],
                 "steps_per_rollout": steps, "success_rate": float(out.success.mean()),
                 "force_closure_rate": float(out.force_closure.mean()),
@@ -174,4 +189,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

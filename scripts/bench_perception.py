@@ -12,15 +12,18 @@ Usage: ``python scripts/bench_perception.py [--repeats 20]``
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import json
 import os
 import platform
 import statistics
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+from symjax.cli.common import parse
 
 FLOOR_MS = 150.0
 
@@ -50,10 +53,18 @@ def _iou_ok(scene, result) -> tuple[int, float]:
     return len(result), float(iou[r, c].min()) if len(r) == n else 0.0
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=20)
-    args = ap.parse_args()
+@dataclasses.dataclass(frozen=True)
+class Args:
+    """Options of this benchmark."""
+
+    config: str = "default"
+    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
+    repeats: int = 20
+    """Timed repeats per case."""
+
+
+def main(argv=None) -> int:
+    args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_perception.py", __doc__)
 
     import jax
 
@@ -124,4 +135,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -21,7 +21,7 @@ Usage: ``python scripts/bench_surface.py [--quick] [--out bench/results/surface.
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import json
 import platform
 import sys
@@ -39,19 +39,24 @@ import trimesh  # noqa: E402
 
 from symjax._atomic import atomic_write_json  # noqa: E402
 from symjax._timing import median_time  # noqa: E402
+from symjax.cli.common import parse  # noqa: E402
 from symjax.datasets.primitives import primitive_view  # noqa: E402
+from symjax.execution import ExecutionConfig  # noqa: E402
+from symjax.geometry import reflect  # noqa: E402
 from symjax.metrics import mesh_deviation  # noqa: E402
 from symjax.surface import (  # noqa: E402
     NormalsConfig,
     PoissonConfig,
-    grid_to_mesh,
     oriented_completion,
-    pack_views,
-    poisson_grids,
     poisson_reconstruct,
 )
-from symjax.surface.poisson import _poisson_batch_jit, _poisson_jit  # noqa: E402
-from symjax.symmetry import reflect  # noqa: E402
+from symjax.surface.isosurface import grid_to_mesh  # noqa: E402
+from symjax.surface.poisson_grid import (  # noqa: E402
+    _poisson_batch_jit,
+    _poisson_jit,
+    pack_views,
+    solve_grids,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -143,7 +148,7 @@ def bench_normals(rows, res, camera, n_points, repeats, o3d) -> None:
 
 def bench_poisson(rows, op, gt, depth, n_points, repeats, o3d) -> None:
     cfg = PoissonConfig(depth=depth)
-    P, N, W, V = pack_views([(op.points, op.normals, op.weights)], cfg=cfg)
+    P, N, W, V = pack_views([(op.points, op.normals, op.weights)], cfg)
     args = [jax.device_put(a[0]) for a in (P, N, W, V)]
     t0 = time.perf_counter()
     compiled = _poisson_jit.lower(*args, cfg).compile()
@@ -231,14 +236,14 @@ def bench_closed(rows, name: str, depth: int, n_points: int, repeats: int, o3d) 
 def bench_batch(rows, ops, depth, repeats) -> None:
     cfg = PoissonConfig(depth=depth)
     n_pad = max(len(op) for op in ops)
-    P, N, W, V = pack_views([(o.points, o.normals, o.weights) for o in ops], n_pad, cfg)
+    P, N, W, V = pack_views([(o.points, o.normals, o.weights) for o in ops], cfg, n_pad)
     args = [jax.device_put(a) for a in (P, N, W, V)]
-    chunk = min(cfg.chunk_views, len(ops)) or len(ops)
+    chunk = min(ExecutionConfig().poisson_chunk_views, len(ops)) or len(ops)
     t0 = time.perf_counter()
     _poisson_batch_jit.lower(*args, cfg, chunk).compile()
     compile_s = time.perf_counter() - t0
-    grids = jax.block_until_ready(poisson_grids(*args, cfg))
-    solve_s = median_time(lambda: jax.block_until_ready(poisson_grids(*args, cfg)), repeats)
+    grids = jax.block_until_ready(solve_grids(*args, cfg, chunk))
+    solve_s = median_time(lambda: jax.block_until_ready(solve_grids(*args, cfg, chunk)), repeats)
     grids = jax.device_get(grids)
     t0 = time.perf_counter()
     meshes = [grid_to_mesh(grids[i], cfg) for i in range(len(ops))]
@@ -260,11 +265,20 @@ def bench_batch(rows, ops, depth, repeats) -> None:
     )
 
 
+@dataclasses.dataclass(frozen=True)
+class Args:
+    """Options of this benchmark."""
+
+    config: str = "default"
+    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
+    quick: bool = False
+    """Fewer repeats and a batch of 16."""
+    out: str = str(ROOT / "bench" / "results" / "surface.json")
+    """Where the JSON lines go."""
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="fewer repeats and a batch of 16")
-    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / "surface.json"))
-    args = ap.parse_args(argv)
+    args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_surface.py", __doc__)
     repeats = 2 if args.quick else 5
     n_batch = 16 if args.quick else 128
     o3d = _open3d()

@@ -18,7 +18,7 @@ Usage: ``python scripts/bench_symmetry.py [--quick] [--out bench/results/symmetr
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import json
 import math
 import os
@@ -34,16 +34,21 @@ jax.config.update("jax_enable_compilation_cache", False)
 
 import numpy as np  # noqa: E402
 
+from symjax import configs  # noqa: E402
 from symjax._atomic import atomic_write_json  # noqa: E402
 from symjax._timing import median_time  # noqa: E402
-from symjax.datasets.primitives import K_DEFAULT, plane_error, primitive_view  # noqa: E402
-from symjax.observation import Observation, point_bucket  # noqa: E402
+from symjax.cli.common import parse  # noqa: E402
+from symjax.datasets.primitives import K_DEFAULT, primitive_view, symmetry_truth  # noqa: E402
+from symjax.execution import ExecutionConfig  # noqa: E402
+from symjax.geometry import bucket  # noqa: E402
+from symjax.metrics import plane_error  # noqa: E402
+from symjax.observation import Observation  # noqa: E402
 from symjax.symmetry import SymmetryConfig, prepare_view, search, search_batch  # noqa: E402
 from symjax.symmetry.reference import score_planes_numpy  # noqa: E402
-from symjax.symmetry.search import _search_batch_jit, _search_jit  # noqa: E402
+from symjax.symmetry.solver import _search_batch_jit, _search_jit  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-PAPER = SymmetryConfig(init="eigen", n_refine=0)
+PAPER = configs.load("paper").symmetry
 
 
 def _subsample(obs: Observation, n: int, seed: int = 0) -> Observation:
@@ -79,19 +84,21 @@ def _numpy_reference(obs: Observation, result, cfg: SymmetryConfig) -> tuple[flo
     return dt, rel
 
 
-def case_single(name: str, obs: Observation, cfg: SymmetryConfig, repeats: int, truth) -> dict:
-    view = prepare_view(obs, point_bucket(obs.n_valid))
+def case_single(
+    name: str, obs: Observation, cfg: SymmetryConfig, repeats: int, truth, ex: ExecutionConfig
+) -> dict:
+    view = prepare_view(obs, bucket(obs.n_valid))
     t0 = time.perf_counter()
-    compiled = _search_jit.lower(view, cfg).compile()
+    compiled = _search_jit.lower(view, cfg, ex.symmetry_chunk_hypotheses).compile()
     compile_s = time.perf_counter() - t0
     jax.block_until_ready(compiled(view))
     run_s = median_time(lambda: jax.block_until_ready(compiled(view)), repeats)
-    e2e_s = median_time(lambda: jax.block_until_ready(search(obs, cfg)), max(3, repeats // 4))
-    res = search(obs, cfg)
+    e2e_s = median_time(lambda: jax.block_until_ready(search(obs, cfg, ex)), max(3, repeats // 4))
+    res = search(obs, cfg, ex)
     n_hyp = cfg.n_hypotheses
     n_level0 = int(np.size(res.votes))
     ref_s, rel = _numpy_reference(obs, res, cfg)
-    ang, off = plane_error(res.normal, res.offset, truth)
+    ang, off = plane_error(res.normal, res.offset, **symmetry_truth(truth))
     return {
         "case": name,
         "n_views": 1,
@@ -111,22 +118,24 @@ def case_single(name: str, obs: Observation, cfg: SymmetryConfig, repeats: int, 
     }
 
 
-def case_batch(name: str, views: list, cfg: SymmetryConfig, repeats: int) -> dict:
+def case_batch(
+    name: str, views: list, cfg: SymmetryConfig, repeats: int, ex: ExecutionConfig
+) -> dict:
     obs = [v[0] for v in views]
     # Kernel alone: the stacked device arrays search_batch builds, compiled explicitly first (a
     # later lower().compile() would be answered from the in-memory cache of the first call).
-    n = point_bucket(max(o.n_valid for o in obs))
+    n = bucket(max(o.n_valid for o in obs))
     stacked = jax.tree_util.tree_map(
         lambda *x: jax.numpy.stack(x), *[prepare_view(o, n) for o in obs]
     )
-    chunk = min(cfg.chunk_views or len(obs), len(obs))
+    chunk = min(ex.symmetry_chunk_views or len(obs), len(obs))
     t0 = time.perf_counter()
-    compiled = _search_batch_jit.lower(stacked, cfg, chunk).compile()
+    compiled = _search_batch_jit.lower(stacked, cfg, chunk, ex.symmetry_chunk_hypotheses).compile()
     compile_s = time.perf_counter() - t0
     jax.block_until_ready(compiled(stacked))
     run_s = median_time(lambda: jax.block_until_ready(compiled(stacked)), repeats)
-    res = jax.block_until_ready(search_batch(obs, cfg))
-    e2e_s = median_time(lambda: jax.block_until_ready(search_batch(obs, cfg)), repeats)
+    res = jax.block_until_ready(search_batch(obs, cfg, ex))
+    e2e_s = median_time(lambda: jax.block_until_ready(search_batch(obs, cfg, ex)), repeats)
     n_hyp = cfg.n_hypotheses
     pts = sum(o.n_valid for o in obs)
     ref_s, rels = 0.0, []
@@ -136,7 +145,10 @@ def case_batch(name: str, views: list, cfg: SymmetryConfig, repeats: int) -> dic
         rels.append(rel)
     good = [
         max(0.0, a - 5.0) == 0.0 and d <= 0.005
-        for a, d in (plane_error(res[i].normal, res[i].offset, v[1]) for i, v in enumerate(views))
+        for a, d in (
+            plane_error(res[i].normal, res[i].offset, **symmetry_truth(v[1]))
+            for i, v in enumerate(views)
+        )
     ]
     return {
         "case": name,
@@ -157,11 +169,24 @@ def case_batch(name: str, views: list, cfg: SymmetryConfig, repeats: int) -> dic
     }
 
 
+@dataclasses.dataclass(frozen=True)
+class Args:
+    """Options of this benchmark."""
+
+    config: str = "default"
+    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
+    out: str = str(ROOT / "bench" / "results" / "symmetry.json")
+    """Where the JSON lines go."""
+    quick: bool = False
+    """Fewer repeats and 16 views in case b."""
+    symmetry: SymmetryConfig = dataclasses.field(default_factory=SymmetryConfig)
+    """The search of case a_default (case a and b are the paper preset's)."""
+    execution: ExecutionConfig = dataclasses.field(default_factory=ExecutionConfig)
+    """Chunk sizes."""
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--out", default=str(ROOT / "bench" / "results" / "symmetry.json"))
-    ap.add_argument("--quick", action="store_true", help="fewer repeats and 16 views in case b")
-    args = ap.parse_args(argv)
+    args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_symmetry.py", __doc__)
     repeats = 5 if args.quick else 20
     env = {
         "device": str(jax.devices()[0]),
@@ -184,13 +209,16 @@ def main(argv=None) -> int:
         "bottle", 0.4, distance=0.6, noise=0.001, K=K2, width=1280, height=960
     )
     big = _subsample(big, 40_000)
-    row = case_single("a", big, PAPER, repeats, truth)
+    ex = args.execution
+    row = case_single("a", big, PAPER, repeats, truth, ex)
     row["floor_ms"] = 20.0
     row["meets_floor"] = row["run_ms"] <= 20.0
     row["paper_s"] = 16.46
     row["speedup_vs_paper"] = round(16.46 / (row["run_ms"] / 1e3), 1)
     emit(row)
-    emit(case_single("a_default", big, SymmetryConfig(), repeats, truth))
+    # The --config preset's own search (symjax's default unless told otherwise).
+    row = case_single("a_default", big, args.symmetry, repeats, truth, ex)
+    emit({**row, "preset": args.config})
 
     # (b) 128 views: 3 objects x 8 orientations, cycling distance and elevation.
     n_b = 16 if args.quick else 128
@@ -203,7 +231,7 @@ def main(argv=None) -> int:
         views.append(
             primitive_view(kind, yaw, distance=dist, elevation_deg=elev, noise=0.001, seed=i)
         )
-    emit(case_batch("b", views, PAPER, max(3, repeats // 4)))
+    emit(case_batch("b", views, PAPER, max(3, repeats // 4), ex))
 
     # (c) one view x 1,000 hypotheses.
     obs, truth = views[2]
@@ -211,9 +239,10 @@ def main(argv=None) -> int:
         case_single(
             "c",
             obs,
-            SymmetryConfig(init="eigen", n_refine=0, n_angles=40, n_shifts=25),
+            dataclasses.replace(PAPER, n_angles=40, n_shifts=25),
             repeats,
             truth,
+            ex,
         )
     )
 

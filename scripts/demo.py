@@ -1,124 +1,21 @@
-"""symjax demo: symmetry completion of partial views, end to end on embedded synthetic data.
+"""Symmetry completion of 24 synthetic views, end to end: ``symjax demo``.
 
-Renders 24 noisy views (a box, a cylinder and a bottle at 8 orientations, 0-315 deg) with the
-ray-cast depth sensor, finds every view's symmetry plane in one batched call, and writes:
-
-  out/demo/summary.json     per view: plane error against the truth, votes, timings
-  out/demo/clouds/*.ply     completed clouds (observed + mirrored points)
-  out/demo/completion.png   observed (blue) and mirrored (orange) points of a few views
-
-Usage: ``python scripts/demo.py [--out out/demo] [--paper]``
+Run ``python scripts/demo.py --help`` (or ``symjax demo --help``) for the options.
 """
 
 from __future__ import annotations
 
-import argparse
-import math
 import sys
-import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from symjax.cli.demo_command import main as _main  # noqa: E402
 
 
-def _figure(path: Path, results, views) -> None:
-    import io
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from symjax._atomic import atomic_write_bytes
-
-    picks = [0, 3, 8, 11, 16, 19]
-    fig, axes = plt.subplots(2, 3, figsize=(12, 7.5), subplot_kw={"projection": "3d"})
-    for ax, i in zip(axes.ravel(), picks, strict=True):
-        kind, deg, obs, _ = views[i]
-        r = results[i]
-        p = obs.valid_points()[::3]
-        m = r.mirrored_cloud()[::3]
-        ax.scatter(p[:, 0], p[:, 1], p[:, 2], s=0.3, c="tab:blue", label="observed")
-        ax.scatter(m[:, 0], m[:, 1], m[:, 2], s=0.3, c="tab:orange", label="mirrored")
-        ax.set_title(f"{kind} {deg} deg")
-        ax.set_box_aspect(np.ptp(np.concatenate([p, m]), axis=0) + 1e-3)
-        ax.set_axis_off()
-    axes[0, 0].legend(loc="upper left", markerscale=12)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--out", default=str(ROOT / "out" / "demo"), help="output folder")
-    ap.add_argument(
-        "--paper", action="store_true", help="the paper's search only (Eq. 1 axis, no refinement)"
-    )
-    args = ap.parse_args(argv)
-
-    import numpy as np
-    from tqdm import tqdm
-
-    from symjax._atomic import atomic_write_json
-    from symjax.datasets.primitives import KINDS, plane_error, primitive_view
-    from symjax.io import write_point_cloud
-    from symjax.symmetry import SymmetryConfig, search_batch
-
-    out = Path(args.out)
-    cfg = SymmetryConfig(init="eigen", n_refine=0) if args.paper else SymmetryConfig()
-    t0 = time.perf_counter()
-    views = []
-    for kind in tqdm(KINDS, desc="render", unit="object"):
-        for k in range(8):
-            obs, planes = primitive_view(kind, math.radians(45 * k), noise=0.001, seed=k)
-            views.append((kind, 45 * k, obs, planes))
-    t_render = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    batch = search_batch([v[2] for v in views], cfg)
-    batch.vote.block_until_ready()
-    t_search = time.perf_counter() - t0
-
-    rows, results = [], []
-    for i, (kind, deg, obs, planes) in enumerate(views):
-        r = batch[i]
-        results.append(r)
-        ang, off = plane_error(r.normal, r.offset, planes)
-        cloud = r.completed_cloud()
-        write_point_cloud(out / "clouds" / f"{kind}_{deg:03d}.ply", cloud)
-        rows.append(
-            {
-                "object": kind,
-                "orientation_deg": deg,
-                "n_points": obs.n_valid,
-                "n_completed": len(cloud),
-                "plane_normal": np.asarray(r.normal).round(5).tolist(),
-                "plane_offset_m": round(float(r.offset), 5),
-                "angle_error_deg": round(ang, 3),
-                "offset_error_mm": round(off * 1e3, 3),
-                "within_5deg_5mm": bool(ang <= 5.0 and off <= 0.005),
-                "vote": round(float(r.vote), 4),
-            }
-        )
-    rate = float(np.mean([r["within_5deg_5mm"] for r in rows]))
-    summary = {
-        "config": {"init": cfg.init, "n_refine": cfg.n_refine, "hypotheses": cfg.n_hypotheses},
-        "views": len(rows),
-        "within_5deg_5mm": rate,
-        "render_s": round(t_render, 2),
-        "search_s_incl_compile": round(t_search, 2),
-        "rows": rows,
-    }
-    atomic_write_json(out / "summary.json", summary)
-    _figure(out / "completion.png", results, views)
-    print(f"{len(rows)} views: plane within 5 deg / 5 mm of the truth in {rate:.0%} of them")
-    print(f"search of all views in one call: {t_search:.1f} s (compilation included)")
-    print(f"results: {out}/summary.json, {out}/completion.png, {out}/clouds/")
-    return 0
+def main(argv: list[str] | None = None) -> int:
+    """The same as ``symjax demo``; returns the exit status."""
+    return _main(sys.argv[1:] if argv is None else argv, prog="demo.py")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ Usage: ``python scripts/render_objects.py [--out symjax/datasets/objects.png] [-
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import io
 import sys
 from pathlib import Path
@@ -23,7 +23,8 @@ import numpy as np  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from symjax._atomic import atomic_write_bytes  # noqa: E402
-from symjax.datasets.objects import OBJECT_NAMES, load_dataset_object  # noqa: E402
+from symjax.cli.common import parse  # noqa: E402
+from symjax.datasets import OBJECT_NAMES, load_dataset_object  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -60,11 +61,20 @@ def draw(ax, obj) -> None:
     ax.set_title(f"{obj.dataset}\n{w} x {d} x {h} cm, {sym.kind}", fontsize=8)
 
 
+@dataclasses.dataclass(frozen=True)
+class Args:
+    """Options of this benchmark."""
+
+    config: str = "default"
+    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
+    out: str = str(ROOT / "symjax" / "datasets" / "objects.png")
+    """The picture."""
+    cache: str | None = None
+    """Preprocessed-object cache folder (None: $SYMJAX_CACHE, else ~/.cache/symjax)."""
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--out", default=str(ROOT / "symjax" / "datasets" / "objects.png"))
-    ap.add_argument("--cache", default=None, help="preprocessed-object cache folder")
-    args = ap.parse_args(argv)
+    args = parse(Args, sys.argv[1:] if argv is None else argv, "render_objects.py", __doc__)
     fig = plt.figure(figsize=(12, 9))
     for i, name in enumerate(OBJECT_NAMES):
         ax = fig.add_subplot(3, 4, i + 1, projection="3d")

@@ -8,8 +8,9 @@ Usage: ``python scripts/render_robots.py [--size 480]``
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import os
+import sys
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -19,6 +20,7 @@ import numpy as np  # noqa: E402
 
 from symjax import hands, robots  # noqa: E402
 from symjax._atomic import atomic_write_bytes  # noqa: E402
+from symjax.cli.common import parse  # noqa: E402
 from symjax.resources import asset_dir  # noqa: E402
 
 
@@ -80,10 +82,18 @@ def render_robot(name: str, size: int) -> None:
     _save(asset_dir() / "robots" / name / "head_camera.png", r.render())
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", type=int, default=480)
-    args = ap.parse_args()
+@dataclasses.dataclass(frozen=True)
+class Args:
+    """Options of this benchmark."""
+
+    config: str = "default"
+    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
+    size: int = 480
+    """Picture size, pixels."""
+
+
+def main(argv=None) -> int:
+    args = parse(Args, sys.argv[1:] if argv is None else argv, "render_robots.py", __doc__)
     for name in hands.HAND_NAMES:
         render_hand(name, args.size)
     for name in robots.ROBOT_NAMES:
@@ -91,4 +101,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -9,6 +9,7 @@ import numpy as np
 
 from symjax._pytree import pytree_dataclass, static_field
 from symjax.errors import CameraError, ShapeError
+from symjax.geometry import pixel_rays
 
 __all__ = ["Camera"]
 
@@ -146,17 +147,9 @@ class Camera:
             raise ShapeError(
                 f"depth image must have shape ({self.height}, {self.width}), got {depth.shape}"
             )
-        v, u = jnp.meshgrid(
-            jnp.arange(self.height, dtype=depth.dtype),
-            jnp.arange(self.width, dtype=depth.dtype),
-            indexing="ij",
-        )
-        K = self.K
         z = depth.reshape(-1)
-        yn = (v.reshape(-1) - K[1, 2]) / K[1, 1]
-        xn = (u.reshape(-1) - K[0, 2] - K[0, 1] * yn) / K[0, 0]
-        x, y = xn * z, yn * z
-        xc = jnp.stack([x, y, z], axis=-1)
+        rays = pixel_rays(jnp.asarray(self.K, depth.dtype), self.height, self.width, xp=jnp)
+        xc = rays.reshape(-1, 3) * z[:, None]
         R = self.T_world_cam[:3, :3]
         t = self.T_world_cam[:3, 3]
         return xc @ R.T + t, z > 0

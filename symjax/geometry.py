@@ -9,6 +9,7 @@ work on one example and are batched with ``vmap`` by their callers.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import jax.numpy as jnp
@@ -83,7 +84,7 @@ def reflect(points: Any, normal: Any, offset: Any) -> Any:
 
 def rot_z(angle: float) -> np.ndarray:
     """(3, 3) rotation by ``angle`` radians about the world z axis (the table normal)."""
-    c, s = np.cos(angle), np.sin(angle)
+    c, s = math.cos(angle), math.sin(angle)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
@@ -205,9 +206,7 @@ def mesh_arrays(mesh: Any, what: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
     if f.ndim != 2 or f.shape[1] != 3:
         raise ShapeError(f"{what} faces must have shape (F, 3), got {f.shape}")
     if len(v) < 4 or len(f) < 4:
-        raise EmptyInputError(
-            f"{what} needs >= 4 vertices and faces, got {len(v)} and {len(f)}"
-        )
+        raise EmptyInputError(f"{what} needs >= 4 vertices and faces, got {len(v)} and {len(f)}")
     if not np.all(np.isfinite(v)):
         raise DegenerateGeometryError(f"{what} vertices contain NaN or inf")
     if f.min() < 0 or f.max() >= len(v):

@@ -266,8 +266,9 @@ def _check_in_front(points: np.ndarray, camera: Camera) -> None:
 def stack_observations(observations: Sequence[Observation], n_points: int | None = None):
     """Stacks views into one batched :class:`Observation` (leading axis = view).
 
-    Points are padded to a common bucketed size (:func:`symjax.geometry.bucket`, or ``n_points``) and
-    images to the largest height and width (padding is outside the mask with no depth).
+    Points are padded to a common bucketed size (:func:`symjax.geometry.bucket`, or
+    ``n_points``) and images to the largest height and width (padding is outside the mask with
+    no depth).
 
     Returns:
         A batched Observation whose camera's ``width``/``height`` are the padded image size.

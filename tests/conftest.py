@@ -20,6 +20,10 @@ jax.config.update(
 )
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
 
+# Every symjax cache (rendered benchmark, objects, coacd hulls) goes under .venv, never into the
+# user's home: the tests share it with each other and with later runs on the same checkout.
+os.environ["SYMJAX_CACHE"] = str(ROOT / ".venv" / "cache" / "symjax")
+
 sys.path.insert(0, str(Path(__file__).parent))
 
 

@@ -4,34 +4,37 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 
 import cv2
 import numpy as np
 import pytest
 import trimesh
 
-from symjax.datasets import benchmark as make_benchmark
-from symjax.datasets.benchmark import (
+from symjax.datasets import (
+    DATASET_IDS,
     GENERATOR_VERSION,
     BenchmarkConfig,
-    render_exact,
+    load_dataset_object,
     render_view,
     render_views,
+    symmetry_truth,
     view_names,
 )
-from symjax.datasets.objects import (
-    DATASET_IDS,
-    MeshSymmetryConfig,
-    is_symmetry_plane,
-    load_dataset_object,
-    surface_distance,
-    table_principal_axis,
-)
+from symjax.datasets import benchmark as make_benchmark
+from symjax.datasets.mesh_symmetry import MeshSymmetryConfig, is_symmetry_plane
+from symjax.datasets.preprocess import table_principal_axis
 from symjax.datasets.raycast import render_depth, scene_model
+from symjax.datasets.render import render_exact
 from symjax.datasets.stereo import StereoHead, StereoNoise, outline_bands
-from symjax.datasets.view import plane_error
 from symjax.errors import ConfigError, InvalidInputError, MissingFileError, UnknownNameError
+from symjax.metrics import plane_error as metric_plane_error
+from symjax.metrics import surface_distance
+
+
+def plane_error(view, normal, offset):
+    """The found plane's error against the view's truth (:func:`symjax.metrics.plane_error`)."""
+    return metric_plane_error(normal, offset, **symmetry_truth(view))
+
 
 # A spread of the benchmark: planar (one plane with a handle, two planes lying), rotational,
 # asymmetric, and the largest object; orientation 0 for two of them.
@@ -100,7 +103,7 @@ def test_points_lie_on_the_surface_within_the_noise_bound(views):
         factor, z = _ray_factor(v, pts)
         # z is the noisy depth; the bound grows with depth, so evaluate it slightly deeper.
         bound = noise.depth_bound(z * 1.02, f, head.baseline) * factor + 1e-5
-        dist, _ = surface_distance(v.gt_mesh, pts)
+        dist = surface_distance(pts, v.gt_mesh, candidates=12)
         ok = ~v.flying
         assert np.all(dist[ok] <= bound[ok]), (v.name, float((dist[ok] - bound[ok]).max()))
         # The bound is tight enough to mean something: the noise does move points.
@@ -401,7 +404,7 @@ def test_cache_is_reused_and_regenerated_on_version_change(cache, bench, monkeyp
     # No temporary files left behind by the atomic writes.
     assert not list(bench.folder.glob("*.tmp"))
     # A new generator version uses a new folder (old data is never mixed in).
-    bm = sys.modules["symjax.datasets.benchmark"]  # the package exports a function of that name
+    from symjax.datasets import render as bm
 
     monkeypatch.setattr(bm, "GENERATOR_VERSION", GENERATOR_VERSION + 1)
     assert BenchmarkConfig().key() != bench.folder.name.split("-")[-1]
@@ -416,7 +419,7 @@ def test_cache_is_reused_and_regenerated_on_version_change(cache, bench, monkeyp
 
 
 def test_default_cache_dir_env(monkeypatch, tmp_path):
-    from symjax.datasets.benchmark import default_cache_dir
+    from symjax.datasets.collection import default_cache_dir
 
     monkeypatch.setenv("SYMJAX_CACHE", str(tmp_path))
     assert default_cache_dir() == tmp_path / f"benchmark-v{GENERATOR_VERSION}"

@@ -204,7 +204,7 @@ def test_workspace_and_bad_input(scenes):
     with pytest.raises(InvalidInputError):
         segment(sc.depth)  # a depth image without its camera
     with pytest.raises(InvalidInputError):
-        segment(sc.depth, sc.camera, cfg={"seed": 1})
+        segment(sc.depth, sc.camera, config={"seed": 1})
     with pytest.raises(EmptyInputError):
         segment(np.zeros_like(sc.depth), sc.camera)
     with pytest.raises(InvalidInputError):

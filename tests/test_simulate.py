@@ -168,7 +168,9 @@ def test_nan_states_give_clean_failed_labels(objects, hand_models):
     C = 8
     con = (jnp.full((4, C), jnp.nan), jnp.zeros((4, C, 3)), jnp.zeros((4, C, 3)),
            jnp.zeros((4, C), jnp.int32), jnp.zeros((4, C), jnp.int32))  # fmt: skip
-    out = jax.jit(jax.vmap(functools.partial(labels, scene)))(params, q, q, q, jnp.zeros(4, bool), con, con)
+    out = jax.jit(jax.vmap(functools.partial(labels, scene)))(
+        params, q, q, q, jnp.zeros(4, bool), con, con
+    )
     assert np.all(np.asarray(out["diverged"]))
     assert not np.any(np.asarray(out["success"]))
     for name in ("epsilon", "penetration", "travel", "lift"):

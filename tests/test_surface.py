@@ -136,7 +136,9 @@ def test_poisson_degenerate_inputs_raise():
     p, n = sphere_samples(500, 0.05)
     t = np.linspace(0, 1, 100)[:, None]
     with pytest.raises(DegenerateGeometryError):  # collinear
-        poisson_reconstruct(t * np.array([1.0, 2.0, 3.0]), np.tile([0.0, 0, 1], (100, 1)), config=cfg)
+        poisson_reconstruct(
+            t * np.array([1.0, 2.0, 3.0]), np.tile([0.0, 0, 1], (100, 1)), config=cfg
+        )
     plane = np.random.default_rng(0).uniform(size=(100, 3)) * np.array([1, 1, 0])
     with pytest.raises(DegenerateGeometryError):  # coplanar
         poisson_reconstruct(plane, np.tile([0.0, 0, 1], (100, 1)), config=cfg)

@@ -1,23 +1,25 @@
 """Data sets: the embedded 128-view benchmark, synthetic primitive scenes and the ray caster.
 
-``symjax.datasets.benchmark(...)`` returns the benchmark's views (see
-:mod:`symjax.datasets.benchmark`); every data source yields :class:`View` objects.
-Submodules: ``objects`` (the 12 scanned objects), ``stereo`` (the simulated stereo head),
-``view`` (the view type), ``raycast`` (display-free depth rendering), ``primitives``.
+``symjax.datasets.benchmark(...)`` returns the benchmark's views; every data source yields
+:class:`View` objects. Modules: ``catalogue`` (the 12 scanned objects, 16 data sets),
+``preprocess`` (canonical object frame), ``mesh_symmetry`` (true symmetry planes), ``objects``
+(cached object models), ``stereo`` (the simulated stereo head), ``render`` (views of an object),
+``view_file`` (a view on disk), ``collection`` (the cached benchmark), ``view`` (the view type),
+``raycast`` (display-free depth rendering), ``primitives`` (synthetic boxes and cylinders).
 """
 
-from symjax.datasets import raycast
-from symjax.datasets.benchmark import (
+from symjax.datasets.catalogue import DATASET_IDS, OBJECT_NAMES
+from symjax.datasets.collection import Benchmark, benchmark, view_names
+from symjax.datasets.objects import ObjectModel, load_dataset_object, load_object
+from symjax.datasets.render import (
     GENERATOR_VERSION,
     ORIENTATIONS_DEG,
-    Benchmark,
     BenchmarkConfig,
-    benchmark,
+    render_view,
     render_views,
 )
-from symjax.datasets.objects import DATASET_IDS, OBJECT_NAMES, ObjectModel, load_object
 from symjax.datasets.stereo import StereoHead, StereoNoise
-from symjax.datasets.view import View, plane_error
+from symjax.datasets.view import View, symmetry_truth
 
 __all__ = [
     "DATASET_IDS",
@@ -31,8 +33,10 @@ __all__ = [
     "StereoNoise",
     "View",
     "benchmark",
+    "load_dataset_object",
     "load_object",
-    "plane_error",
-    "raycast",
+    "render_view",
     "render_views",
+    "symmetry_truth",
+    "view_names",
 ]

@@ -18,7 +18,7 @@ from symjax.errors import unknown_name
 from symjax.observation import Observation
 from symjax.table import TablePlane
 
-__all__ = ["K_DEFAULT", "KINDS", "plane_error", "primitive_shape", "primitive_view"]
+__all__ = ["K_DEFAULT", "KINDS", "symmetry_truth", "primitive_shape", "primitive_view"]
 
 #: Intrinsics of the default 640x480 camera, pixels.
 K_DEFAULT = np.array([[900.0, 0.0, 320.0], [0.0, 900.0, 240.0], [0.0, 0.0, 1.0]])
@@ -110,22 +110,9 @@ def primitive_view(
     return Observation.create(pts, cam, TablePlane.horizontal(), mask, obj_depth), normals
 
 
-def plane_error(normal: Any, offset: float, true_normals: list[np.ndarray]) -> tuple[float, float]:
-    """Error of a plane ``{x : normal . x = offset}`` against true planes through the origin.
-
-    Args:
-        normal: (3,) unit normal of the found plane.
-        offset: Its offset, metres.
-        true_normals: The object's true plane normals; empty for a rotational object.
-
-    Returns:
-        ``(angle, offset)`` errors in degrees and metres against the nearest true plane; for a
-        rotational object, the angle error is 0 and the offset error is the plane's distance
-        from the axis.
-    """
-    normal = np.asarray(normal, np.float64)
-    offset = float(offset)
+def symmetry_truth(true_normals: list[np.ndarray]) -> dict[str, Any]:
+    """A primitive's true symmetry (planes through the origin, or the vertical axis through it)
+    as the keyword arguments of :func:`symjax.metrics.plane_error`."""
     if not true_normals:
-        return 0.0, abs(offset)
-    angles = [math.degrees(math.acos(min(1.0, abs(float(normal @ t))))) for t in true_normals]
-    return min(angles), abs(offset)
+        return {"axis": (np.zeros(3), np.array([0.0, 0.0, 1.0]))}
+    return {"planes": [(np.asarray(t, np.float64), 0.0) for t in true_normals]}

@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from symjax.camera import Camera
+from symjax.geometry import pixel_rays
 
 __all__ = ["Primitive", "scene_model", "render_depth"]
 
@@ -102,10 +103,7 @@ def render_depth(
     mujoco.mj_forward(model, data)
     K = np.asarray(camera.K, np.float64)
     T = np.asarray(camera.T_world_cam, np.float64)
-    v, u = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float64)
-    yn = (v - K[1, 2]) / K[1, 1]
-    xn = (u - K[0, 2] - K[0, 1] * yn) / K[0, 0]
-    dirs_cam = np.stack([xn, yn, np.ones_like(xn)], axis=-1).reshape(-1, 3)
+    dirs_cam = pixel_rays(K, camera.height, camera.width).reshape(-1, 3)
     # Ray length t along a direction with unit z in camera frame is exactly the optical depth.
     dirs = dirs_cam @ T[:3, :3].T
     scale = np.linalg.norm(dirs, axis=1)

@@ -34,6 +34,7 @@ import numpy as np
 
 from symjax.camera import Camera
 from symjax.errors import ConfigError
+from symjax.geometry import pixel_rays
 
 __all__ = ["StereoHead", "StereoNoise", "simulate_stereo", "outline_bands"]
 
@@ -242,10 +243,7 @@ def simulate_stereo(
     has = z > 0
 
     # 3. Grazing angles: angle between the normal and the viewing ray.
-    v, u = np.mgrid[0:h, 0:w].astype(np.float64)
-    yn = (v - K[1, 2]) / K[1, 1]
-    xn = (u - K[0, 2] - K[0, 1] * yn) / K[0, 0]
-    rays = np.stack([xn, yn, np.ones_like(xn)], -1) @ R.T
+    rays = pixel_rays(K, h, w) @ R.T
     rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
     cos = np.abs(np.sum(rays * np.asarray(normals, np.float64), axis=-1))
     keep = has & (cos >= math.cos(math.radians(noise.grazing_deg)))

@@ -7,16 +7,15 @@ known, ``gt_pose=None`` and ``symmetry_planes=None``. Downstream code is data-so
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 
-from symjax.errors import InvalidInputError, ShapeError
+from symjax.errors import InvalidInputError
 from symjax.observation import Observation
 
-__all__ = ["View", "plane_error"]
+__all__ = ["View", "symmetry_truth"]
 
 SymmetryKind = Literal["none", "planar", "rotational", "unknown"]
 
@@ -142,62 +141,20 @@ class View:
         return np.asarray(self.observation.mask)
 
 
-def plane_error(view: View, normal: Any, offset: float) -> tuple[float, float]:
-    """Error of a found plane ``{x : normal . x = offset}`` against the view's true symmetry.
-
-    * Planar symmetry: against the nearest true plane (by angle), the angle between the normals
-      (sign-free) and the found plane's distance from the point of the true plane nearest the
-      object's table-projected centre (so an offset error does not depend on where the world
-      origin is).
-    * Rotational symmetry: every vertical plane through the axis is true; the angle error is the
-      found plane's tilt away from the vertical (angle between the normal and the table), the
-      offset error its distance from the axis at the object's mid height.
-
-    Args:
-        view: The view (its ``symmetry``, ``symmetry_planes`` and ``symmetry_axis``).
-        normal: Found plane normal (3,), world frame (normalised here).
-        offset: Found plane offset, metres.
-
-    Returns:
-        ``(angle_deg, offset_m)``; ``(nan, nan)`` when the object has no symmetry plane.
+def symmetry_truth(view: View) -> dict[str, Any]:
+    """The view's true symmetry as the keyword arguments of :func:`symjax.metrics.plane_error`.
 
     Raises:
-        InvalidInputError: If the view's symmetry is unknown, or the normal is zero.
-        ShapeError: If the normal is not (3,).
+        InvalidInputError: The view's symmetry is unknown (or rotational without an axis).
     """
-    n = np.asarray(normal, np.float64)
-    if n.shape != (3,):
-        raise ShapeError(f"plane normal must have shape (3,), got {n.shape}")
-    nn = float(np.linalg.norm(n))
-    if not math.isfinite(nn) or nn < 1e-12:
-        raise InvalidInputError("plane normal must be finite and non-zero")
-    n = n / nn
-    off = float(offset) / nn
     centre = _object_centre(view)
     if view.symmetry == "rotational":
         if view.symmetry_axis is None:
             raise InvalidInputError(f"view {view.name!r} is rotational but has no symmetry_axis")
-        a, d = (np.asarray(x, np.float64) for x in view.symmetry_axis)
-        d = d / np.linalg.norm(d)
-        tilt = math.degrees(math.asin(min(1.0, abs(float(n @ d)))))
-        # The axis point at the object's height along the axis.
-        p = a + float((centre - a) @ d) * d
-        return tilt, abs(float(n @ p) - off)
+        return {"axis": view.symmetry_axis, "centre": centre}
     if view.symmetry_planes is None or view.symmetry == "unknown":
         raise InvalidInputError(f"view {view.name!r} has no known symmetry to compare with")
-    if not view.symmetry_planes:
-        return float("nan"), float("nan")
-    best: tuple[float, float] | None = None
-    for tn, to in view.symmetry_planes:
-        tn = np.asarray(tn, np.float64)
-        tn = tn / np.linalg.norm(tn)
-        ang = math.degrees(math.acos(min(1.0, abs(float(n @ tn)))))
-        p = centre - (float(tn @ centre) - float(to)) * tn
-        err = (ang, abs(float(n @ p) - off))
-        if best is None or err[0] < best[0]:
-            best = err
-    assert best is not None
-    return best
+    return {"planes": list(view.symmetry_planes), "centre": centre}
 
 
 def _object_centre(view: View) -> np.ndarray:

@@ -7,8 +7,10 @@ import hashlib
 import json
 from typing import Any
 
+from symjax.datasets.stereo import StereoHead
 from symjax.errors import ConfigError, unknown_name
-from symjax.surface import DelaunayConfig, NormalsConfig
+from symjax.execution import ExecutionConfig
+from symjax.surface import DelaunayConfig, NormalsConfig, PoissonConfig
 from symjax.symmetry import SymmetryConfig
 
 __all__ = ["METHODS", "POISSON_DEPTHS", "EvalConfig", "parse_subset"]
@@ -34,16 +36,18 @@ class EvalConfig:
         methods: Reconstructions to evaluate, a subset of :data:`METHODS`.
         subset: Subset items (see :func:`parse_subset`); empty = every view.
         data: A folder in the paper's KTH database layout, or None for the embedded benchmark.
-        cache_dir: Cache of the embedded benchmark (None = its default).
+        cache_dir: Cache of the embedded benchmark (None = ``$SYMJAX_CACHE``, else
+            ``~/.cache/symjax``).
         seed: Seed of the embedded benchmark's rendering.
-        batch_size: Views per batch through the jitted symmetry search and Poisson solve.
         n_samples: Uniform samples of the reference surface per metric (MeshDev's sampling).
+        camera: The stereo head that renders the embedded benchmark.
         symmetry: Symmetry search parameters.
         normals: Normal estimation parameters of the completed cloud.
+        poisson: Poisson parameters of ``Mir5`` and ``Mir7`` (their ``depth`` is 5 and 7).
         delaunay: Parameters of the baseline ``Del``.
         gallery: Views shown in the gallery image (the last one is the worst Mir7 view).
         resume: Skip views whose results with the same configuration are already written.
-        progress: Show a progress bar.
+        execution: Batch and chunk sizes, progress bar; no effect on the results.
     """
 
     out_dir: str = "out/eval"
@@ -52,14 +56,15 @@ class EvalConfig:
     data: str | None = None
     cache_dir: str | None = None
     seed: int = 0
-    batch_size: int = 16
     n_samples: int = 5000
+    camera: StereoHead = dataclasses.field(default_factory=StereoHead)
     symmetry: SymmetryConfig = dataclasses.field(default_factory=SymmetryConfig)
     normals: NormalsConfig = dataclasses.field(default_factory=NormalsConfig)
+    poisson: PoissonConfig = dataclasses.field(default_factory=PoissonConfig)
     delaunay: DelaunayConfig = dataclasses.field(default_factory=DelaunayConfig)
     gallery: int = 4
     resume: bool = True
-    progress: bool = True
+    execution: ExecutionConfig = dataclasses.field(default_factory=ExecutionConfig)
 
     def __post_init__(self) -> None:
         _require(len(self.methods) > 0, "methods is empty; expected some of Del, Mir5, Mir7")
@@ -67,10 +72,6 @@ class EvalConfig:
             if m not in METHODS:
                 raise unknown_name("method", m, METHODS)
         _require(len(set(self.methods)) == len(self.methods), f"methods repeat: {self.methods}")
-        _require(
-            isinstance(self.batch_size, int) and self.batch_size >= 1,
-            f"batch_size must be an int >= 1, got {self.batch_size!r}",
-        )
         _require(
             isinstance(self.n_samples, int) and self.n_samples >= 100,
             f"n_samples must be an int >= 100, got {self.n_samples!r}",
@@ -82,7 +83,7 @@ class EvalConfig:
         parse_subset(self.subset)
 
     def key(self) -> str:
-        """Hash of everything that changes a view's numbers (not the output or batch size).
+        """Hash of everything that changes a view's numbers (not the output or execution).
 
         A per-view result is reused on resume only when its key matches, so that a run with
         another symmetry configuration never mixes with older results.
@@ -90,15 +91,14 @@ class EvalConfig:
         keep = {
             "symmetry": dataclasses.asdict(self.symmetry),
             "normals": dataclasses.asdict(self.normals),
+            "poisson": {k: v for k, v in dataclasses.asdict(self.poisson).items() if k != "depth"},
             "delaunay": dataclasses.asdict(self.delaunay),
             "n_samples": self.n_samples,
             "seed": self.seed,
+            "camera": dataclasses.asdict(self.camera),
             "data": self.data,
-            "version": 1,
+            "version": 2,
         }
-        # chunk sizes only change speed, never the numbers.
-        for k in ("chunk_views", "chunk_hypotheses"):
-            keep["symmetry"].pop(k, None)
         text = json.dumps(keep, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:12]
 
@@ -129,7 +129,9 @@ def parse_subset(items: tuple[str, ...] | list[str]) -> dict[str, Any]:
     names: list[str] = []
     degs: list[float] = []
     first: int | None = None
-    for raw in items:
+    # "a,b" and ("a", "b") alike: the command line may pass either.
+    split = [part for raw in items for part in (str(raw).split(",") if "," in str(raw) else [raw])]
+    for raw in split:
         item = str(raw).strip()
         _require(bool(item), "empty subset item; expected N, <deg>deg, a data set id or view name")
         if item.isdigit():

@@ -7,6 +7,7 @@ recomputes its few views.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 from collections.abc import Sequence
@@ -130,7 +131,7 @@ def plot_centroid(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: 
     return _save(fig, path)
 
 
-def pick_gallery(records: Sequence[dict[str, Any]], n: int) -> list[tuple[str, str]]:
+def pick_gallery(records: Sequence[Any], n: int) -> list[tuple[str, str]]:
     """Views for the gallery: ``n - 1`` typical ones of distinct data sets, then the worst.
 
     With ground truth, the typical views spread over the Mir7 deviation quantiles and the
@@ -142,28 +143,26 @@ def pick_gallery(records: Sequence[dict[str, Any]], n: int) -> list[tuple[str, s
     """
     if n <= 0 or not records:
         return []
-    method = next((m for m in ("Mir7", "Mir5") if m in records[0]["methods"]), None)
+    method = next((m for m in ("Mir7", "Mir5") if m in records[0].methods), None)
     if method is None:
         return []
 
     def score(rec):
-        r = rec["methods"][method]
-        dev = r.get("dev_mean_mm")
-        if dev is not None and math.isfinite(dev):
+        dev = rec.result(method).dev_mean_mm
+        if math.isfinite(dev):
             return dev, f"{method} {dev:.1f} mm"
-        sym = rec.get("symmetry") or {}
-        vote = sym.get("vote")
+        vote = None if rec.symmetry is None else rec.symmetry.vote
         return (
             vote if vote is not None else math.inf
         ), f"vote {vote if vote is not None else 0:.3g}"
 
-    ok = [r for r in records if r["methods"][method]["ok"]]
+    ok = [r for r in records if r.result(method).ok]
     if not ok:
         return []
     ok.sort(key=lambda r: score(r)[0])
     worst = ok[-1]
     picks: list[tuple[str, str]] = []
-    seen = {worst["dataset"]}
+    seen = {worst.dataset}
     rest = ok[:-1]
     for q in np.linspace(0.1, 0.7, max(n - 1, 1)) if n > 1 else []:
         if not rest:
@@ -171,26 +170,26 @@ def pick_gallery(records: Sequence[dict[str, Any]], n: int) -> list[tuple[str, s
         start = int(q * (len(rest) - 1))
         # The nearest view of a data set not shown yet, searching up then down from the quantile.
         order = list(range(start, len(rest))) + list(range(start - 1, -1, -1))
-        cand = next((rest[i] for i in order if rest[i]["dataset"] not in seen), None)
+        cand = next((rest[i] for i in order if rest[i].dataset not in seen), None)
         if cand is None:
             # Few data sets (a small subset): show another view of one already shown.
-            shown = {n for n, _ in picks} | {worst["view"]}
-            cand = next((rest[i] for i in order if rest[i]["view"] not in shown), None)
+            shown = {n for n, _ in picks} | {worst.view}
+            cand = next((rest[i] for i in order if rest[i].view not in shown), None)
         if cand is None:
             continue
-        seen.add(cand["dataset"])
-        picks.append((cand["view"], score(cand)[1]))
-    picks.append((worst["view"], "failure case: " + score(worst)[1]))
+        seen.add(cand.dataset)
+        picks.append((cand.view, score(cand)[1]))
+    picks.append((worst.view, "failure case: " + score(worst)[1]))
     return picks
 
 
-def gallery(views: Sequence, captions: Sequence[str], cfg, path: str | Path) -> Path:
+def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) -> Path:
     """Partial cloud, mirrored cloud and Mir7 mesh of a few views (recomputed here).
 
     Args:
         views: The :class:`~symjax.datasets.View` objects to show, one row each.
         captions: One caption per view.
-        cfg: The :class:`~symjax.evaluation.EvalConfig` (symmetry and normals settings).
+        config: The :class:`~symjax.evaluation.EvalConfig` (symmetry and normals settings).
         path: Output PNG.
     """
     import matplotlib
@@ -200,10 +199,11 @@ def gallery(views: Sequence, captions: Sequence[str], cfg, path: str | Path) -> 
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     from symjax.errors import SymjaxError
-    from symjax.surface import PoissonConfig, mesh_completion
+    from symjax.surface import oriented_completion, poisson_reconstruct
     from symjax.symmetry import search_batch
 
-    res = search_batch([v.observation for v in views], cfg.symmetry)
+    res = search_batch([v.observation for v in views], config.symmetry, config.execution)
+    mir7 = dataclasses.replace(config.poisson, depth=7)
     fig = plt.figure(figsize=(11, 3.4 * len(views)))
     light = np.array([0.3, -0.6, 0.75])
     light /= np.linalg.norm(light)
@@ -215,7 +215,8 @@ def gallery(views: Sequence, captions: Sequence[str], cfg, path: str | Path) -> 
         sel_o = rng.permutation(len(obs))[:3000]
         sel_m = rng.permutation(len(mir))[:3000]
         try:
-            mesh = mesh_completion(r, v.camera, cfg.normals, PoissonConfig(depth=7))
+            op = oriented_completion(r, v.camera, config.normals)
+            mesh = poisson_reconstruct(op.points, op.normals, op.weights, mir7)
         except SymjaxError:
             mesh = None
         allp = np.concatenate([obs, mir]) if len(mir) else obs

@@ -13,7 +13,7 @@ import numpy as np
 
 from symjax._atomic import atomic_write_json, atomic_write_text
 from symjax.evaluation.figures import group_stats
-from symjax.evaluation.run import ROW_FIELDS, _jsonable
+from symjax.evaluation.records import ROW_FIELDS, ViewRecord, jsonable
 
 __all__ = ["PAPER", "summarize", "write_report", "write_tables"]
 
@@ -28,7 +28,7 @@ def _mean(x) -> float:
 
 
 def summarize(
-    records: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any]], methods: Sequence[str]
+    records: Sequence[ViewRecord], rows: Sequence[dict[str, Any]], methods: Sequence[str]
 ) -> dict[str, Any]:
     """Aggregates: per method overall / per orientation / per data set, planes, timings, checks.
 
@@ -60,8 +60,9 @@ def summarize(
             }
             for i, g in enumerate(groups)
         }
-    deg = np.array([_num((r.get("symmetry") or {}).get("plane_error_deg")) for r in records])
-    mm = np.array([_num((r.get("symmetry") or {}).get("plane_error_mm")) for r in records])
+    nan = math.nan
+    deg = np.array([nan if r.symmetry is None else r.symmetry.plane_error_deg for r in records])
+    mm = np.array([nan if r.symmetry is None else r.symmetry.plane_error_mm for r in records])
     ok = np.isfinite(deg)
     out["plane_error"] = {
         "n": int(ok.sum()),
@@ -75,7 +76,7 @@ def summarize(
     }
     stages: dict[str, float] = {}
     for r in records:
-        for k, v in r.get("timings_s", {}).items():
+        for k, v in r.timings_s.items():
             stages[k] = stages.get(k, 0.0) + _num(v)
     out["timings_s"] = {k: stages[k] for k in sorted(stages)}
     out["checks"] = _checks(out, methods)
@@ -139,7 +140,7 @@ def write_tables(
     p_csv = atomic_write_text(out / "results.csv", buf.getvalue())
     p_json = atomic_write_json(
         out / "results.json",
-        _jsonable({"config": config, "run": info, "summary": summary, "rows": list(rows)}),
+        jsonable({"config": config, "run": info, "summary": summary, "rows": list(rows)}),
     )
     return p_csv, p_json
 

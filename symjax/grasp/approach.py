@@ -14,6 +14,7 @@ from symjax.geometry import bucket, pad_rows
 
 __all__ = ["approach_frame", "approach_frames", "roll_for_axis", "rolls_for_axes"]
 
+
 def _reference_axes(a):
     """Two unit vectors spanning the plane normal to unit ``a``: world z projected, then a x z."""
     ref = jnp.where(jnp.abs(a[2]) < 0.99, jnp.array([0.0, 0.0, 1.0]), jnp.array([1.0, 0.0, 0.0]))
@@ -44,7 +45,6 @@ def roll_for_axis(approach, axis):
     a = approach / jnp.linalg.norm(approach)
     e1, e2 = _reference_axes(a)
     return jnp.arctan2(jnp.dot(axis, e2), jnp.dot(axis, e1))
-
 
 
 _frames_jit = jax.jit(jax.vmap(approach_frame))

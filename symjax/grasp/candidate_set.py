@@ -12,6 +12,7 @@ from symjax.grasp.approach import approach_frames
 
 __all__ = ["CandidateSet", "Candidates"]
 
+
 @pytree_dataclass
 class Candidates:
     """A batch of N grasp candidates (every field's leading axis is N).
@@ -67,4 +68,3 @@ class CandidateSet:
 
     def __len__(self) -> int:
         return len(self.candidates)
-

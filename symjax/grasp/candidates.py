@@ -261,7 +261,7 @@ def generate(
         object_bad = np.zeros(n, dtype=bool)
         for p, local in probes.items():
             sel = np.flatnonzero(cands.preshape == p)
-            nb = bucket(len(sel), minimum=64)
+            nb = bucket(len(sel), minimum=256)
             world = np.asarray(_probe_world(
                 pad_rows(cands.approach[sel].astype(np.float32), nb),
                 pad_rows(cands.point[sel].astype(np.float32), nb),

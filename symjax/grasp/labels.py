@@ -18,6 +18,7 @@ __all__ = ["START_TOLERANCE", "labels"]
 
 START_TOLERANCE = 0.005  # metres of start-pose penetration still counted as touching
 
+
 def labels(scene: GraspScene, p, q_app, q_grasp, q_end, diverged, grasp_con, start_con):
     """Outcome fields of one candidate from its kept states and contact arrays (pure JAX)."""
     cfg = scene.config
@@ -98,4 +99,3 @@ def labels(scene: GraspScene, p, q_app, q_grasp, q_end, diverged, grasp_con, sta
         "lift": clean(lift),
         "diverged": bad,
     }
-

@@ -21,6 +21,7 @@ from symjax.geometry import bucket, mesh_arrays, pad_rows
 
 __all__ = ["cast_rays", "inside_mesh", "ray_mesh"]
 
+
 def _ray_triangles(origin, direction, triangles, t_min: float):
     """Moller-Trumbore for one ray against every triangle (T, 3, 3).
 

@@ -26,6 +26,7 @@ from symjax.grasp.sim_config import SimulationConfig
 
 __all__ = ["simulate"]
 
+
 def simulate(
     obj: Any,
     candidates: Candidates,

@@ -25,6 +25,7 @@ from symjax.grasp.sim_config import SimulationConfig
 
 __all__ = ["GraspScene", "build_scene"]
 
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class GraspScene:
     """A compiled grasp scene and the index tables the rollouts need.
@@ -151,14 +152,14 @@ def build_scene(
     )
 
 
-def scene_spec(hulls, com: np.ndarray, hand: Any, cfg: SimulationConfig, height: float):
+def scene_spec(hulls, com: np.ndarray, hand: Any, config: SimulationConfig, height: float):
     """The :class:`mujoco.MjSpec` of a grasp scene (see the module docstring).
 
     Args:
         hulls: ``(vertices (V_i, 3), faces (F_i, 3))`` convex hulls, world frame, metres.
         com: (3,) the object's centre of mass, metres (its body origin).
         hand: The :class:`symjax.hands.Hand`.
-        cfg: :class:`SimulationConfig`.
+        config: :class:`SimulationConfig`.
         height: Table height, metres.
     """
     from symjax.decompose import object_spec
@@ -166,36 +167,36 @@ def scene_spec(hulls, com: np.ndarray, hand: Any, cfg: SimulationConfig, height:
     spec = mujoco.MjSpec()
     spec.modelname = f"grasp_{hand.name}"
     o = spec.option
-    o.timestep = cfg.timestep
-    o.iterations = cfg.iterations
-    o.ls_iterations = cfg.ls_iterations
+    o.timestep = config.timestep
+    o.iterations = config.iterations
+    o.ls_iterations = config.ls_iterations
     o.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     o.cone = (
         mujoco.mjtCone.mjCONE_ELLIPTIC
-        if cfg.cone == "elliptic"
+        if config.cone == "elliptic"
         else mujoco.mjtCone.mjCONE_PYRAMIDAL
     )
-    o.impratio = cfg.impratio
-    if cfg.mjx_max_contacts is not None:
-        spec.add_numeric(name="max_contact_points", data=[cfg.mjx_max_contacts])
-    if cfg.mjx_max_pairs is not None:
-        spec.add_numeric(name="max_geom_pairs", data=[cfg.mjx_max_pairs])
+    o.impratio = config.impratio
+    if config.mjx_max_contacts is not None:
+        spec.add_numeric(name="max_contact_points", data=[config.mjx_max_contacts])
+    if config.mjx_max_pairs is not None:
+        spec.add_numeric(name="max_geom_pairs", data=[config.mjx_max_pairs])
     o.gravity = [0.0, 0.0, -9.81]
     spec.worldbody.add_geom(
         name="table",
         type=mujoco.mjtGeom.mjGEOM_PLANE,
         size=[0.0, 0.0, 1.0],
         pos=[0.0, 0.0, height],
-        friction=[cfg.object_friction, 0.005, 0.0001],
+        friction=[config.object_friction, 0.005, 0.0001],
         condim=3,
     )
     object_spec(
         [(v - com, f) for v, f in hulls],
         name="object",
         pos=com,
-        mass=cfg.object_mass,
-        density=cfg.object_density,
-        friction=(cfg.object_friction, 0.005, 0.0001),
+        mass=config.object_mass,
+        density=config.object_density,
+        friction=(config.object_friction, 0.005, 0.0001),
         spec=spec,
     )
     weld = spec.add_equality(
@@ -207,7 +208,7 @@ def scene_spec(hulls, com: np.ndarray, hand: Any, cfg: SimulationConfig, height:
     weld.solref = [0.005, 1.0]
 
     hs = hand.spec()
-    hs.option.timestep = cfg.timestep  # the parent's options win; matching avoids a warning
+    hs.option.timestep = config.timestep  # the parent's options win; matching avoids a warning
     for k in list(hs.keys):
         hs.delete(k)
     frame = spec.worldbody.add_frame()
@@ -229,21 +230,21 @@ def scene_spec(hulls, com: np.ndarray, hand: Any, cfg: SimulationConfig, height:
     for g in spec.geoms:
         # MJX has no margin for box-mesh pairs; zero it everywhere so both backends agree.
         g.margin = 0.0
-        if g.name.startswith("hand/") and cfg.finger_torsion > 0:
+        if g.name.startswith("hand/") and config.finger_torsion > 0:
             # Soft finger pads: torsional friction keeps a pinched object from pivoting about
             # the line through two point contacts.
             g.condim = 4
-            g.friction = [g.friction[0], cfg.finger_torsion, g.friction[2]]
+            g.friction = [g.friction[0], config.finger_torsion, g.friction[2]]
     for ax in "xyz":
         a = spec.add_actuator(name=f"base_v{ax}", target=f"base_{ax}")
         a.trntype = mujoco.mjtTrn.mjTRN_JOINT
-        a.set_to_velocity(kv=cfg.base_kv)
+        a.set_to_velocity(kv=config.base_kv)
         a.forcelimited = True
-        a.forcerange = [-cfg.base_force, cfg.base_force]
+        a.forcerange = [-config.base_force, config.base_force]
     for ax in ("rz", "ry", "rx"):
         a = spec.add_actuator(name=f"base_p{ax}", target=f"base_{ax}")
         a.trntype = mujoco.mjtTrn.mjTRN_JOINT
-        a.set_to_position(kp=cfg.base_kp_rot, dampratio=1.0)
+        a.set_to_position(kp=config.base_kp_rot, dampratio=1.0)
     return spec
 
 

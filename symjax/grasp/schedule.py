@@ -27,6 +27,7 @@ from symjax.grasp.sim_config import SimulationConfig
 
 __all__ = ["candidate_params", "check_candidates", "control", "snap_steps"]
 
+
 def candidate_params(scene: GraspScene, cands: Candidates) -> dict[str, np.ndarray]:
     """Per-candidate start pose, approach and hand targets (numpy, float64)."""
     hand, cfg = scene.hand, scene.config
@@ -102,8 +103,7 @@ def control(scene: GraspScene, k, p):
     return ctrl, qfrc, eq
 
 
-def snap_steps(cfg: SimulationConfig) -> tuple[int, int, int]:
+def snap_steps(config: SimulationConfig) -> tuple[int, int, int]:
     """Indices of the steps whose end states are kept: approach, grasp (settle), final."""
-    A, C, S, L, K = cfg.phase_steps
+    A, C, S, L, K = config.phase_steps
     return A - 1, A + C + S - 1, A + C + S + L + K - 1
-

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from symjax.metrics.deviation import as_mesh, sample_surface
+from symjax.metrics.deviation import checked_mesh, sample_surface
 
 __all__ = ["centroid_error", "surface_centroid"]
 
@@ -28,8 +28,8 @@ def centroid_error(reference: Any, mesh: Any, n_samples: int = 20000, seed: int 
     Returns:
         The normalised centroid error (dimensionless; the paper reports 5-10 %).
     """
-    reference = as_mesh(reference, "reference")
-    mesh = as_mesh(mesh)
+    reference = checked_mesh(reference, "reference")
+    mesh = checked_mesh(mesh)
     c_ref = surface_centroid(reference, n_samples, seed)
     c_mesh = surface_centroid(mesh, n_samples, seed)
     diag = float(np.linalg.norm(reference.bounding_box_oriented.primitive.extents))

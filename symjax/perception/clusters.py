@@ -33,14 +33,14 @@ def _jump(depth: np.ndarray, cfg: SegmentationConfig) -> np.ndarray:
 
 
 def image_clusters(
-    depth: np.ndarray, height: np.ndarray, candidate: np.ndarray, cfg: SegmentationConfig
+    depth: np.ndarray, height: np.ndarray, candidate: np.ndarray, config: SegmentationConfig
 ) -> np.ndarray:
     """Labels object pixels by connectivity on the image grid.
 
     Pixels whose 4-neighbour is nearer by more than the depth jump are cut first (they are the
     far side of an occluding edge) and reattached afterwards to the neighbouring cluster with the
     closest depth, if any is within the jump. A component is an object when at least
-    ``cfg.min_cluster_points`` of its pixels are ``cfg.seed_height`` above the table
+    ``config.min_cluster_points`` of its pixels are ``config.seed_height`` above the table
     (hysteresis: components grow down to ``grow_height`` through ``candidate``).
 
     Args:
@@ -48,23 +48,23 @@ def image_clusters(
         height: (H, W) height above the table, metres.
         candidate: (H, W) bool pixels that may belong to an object (measured, above
             ``grow_height``, below ``max_height``, inside the workspace).
-        cfg: Settings.
+        config: Settings.
 
     Returns:
         int32 (H, W) labels: 0..K-1 objects, ordered by size (largest first); -1 elsewhere.
     """
     import cv2
 
-    thr = _jump(depth, cfg)
+    thr = _jump(depth, config)
     far_edge = np.zeros_like(candidate)
     for dr, dc in ((0, 1), (1, 0), (0, -1), (-1, 0)):
         nb = _shifted(depth, dr, dc, 0.0)
         far_edge |= (nb > 0) & (depth - nb > thr)
     core = candidate & ~far_edge
     n, lab = cv2.connectedComponents(core.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S)
-    seeds = np.bincount(lab[core & (height > cfg.seed_height)], minlength=n)
+    seeds = np.bincount(lab[core & (height > config.seed_height)], minlength=n)
     seeds[0] = 0
-    keep = seeds >= cfg.min_cluster_points
+    keep = seeds >= config.min_cluster_points
     size = np.bincount(lab.ravel(), minlength=n)
     order = np.flatnonzero(keep)[np.argsort(-size[keep], kind="stable")]
     remap = np.full(n, -1, np.int32)
@@ -96,7 +96,7 @@ def image_clusters(
 
 
 def grid_outliers(
-    depth: np.ndarray, rays: np.ndarray, labels: np.ndarray, cfg: SegmentationConfig
+    depth: np.ndarray, rays: np.ndarray, labels: np.ndarray, config: SegmentationConfig
 ) -> np.ndarray:
     """Statistical outlier removal on the image grid (the 8 pixel neighbours as the k nearest).
 
@@ -106,7 +106,7 @@ def grid_outliers(
         depth: (H, W) metres.
         rays: (H, W, 3) camera-frame rays with unit z (point = depth * ray).
         labels: (H, W) int labels, -1 = not an object.
-        cfg: ``sor_std_ratio``.
+        config: ``sor_std_ratio``.
 
     Returns:
         bool (H, W): object pixels whose mean distance to their same-label neighbours exceeds the
@@ -136,7 +136,7 @@ def grid_outliers(
     bad = ~has
     if has.sum() >= 2:
         vals = mean[has]
-        bad |= has & (mean > vals.mean() + cfg.sor_std_ratio * vals.std())
+        bad |= has & (mean > vals.mean() + config.sor_std_ratio * vals.std())
     r, c = np.divmod(idx[bad], W + 2)
     out[r - 1, c - 1] = True
     return out
@@ -163,13 +163,15 @@ def statistical_outliers(points: np.ndarray, k: int, std_ratio: float) -> np.nda
     return mean > mean.mean() + std_ratio * mean.std()
 
 
-def cloud_clusters(points: np.ndarray, height: np.ndarray, cfg: SegmentationConfig) -> np.ndarray:
+def cloud_clusters(
+    points: np.ndarray, height: np.ndarray, config: SegmentationConfig
+) -> np.ndarray:
     """Euclidean clusters of candidate object points (voxel grid + k-d tree).
 
     Args:
         points: (N, 3) candidate points (above ``grow_height``), metres.
         height: (N,) their height above the table, metres.
-        cfg: ``voxel_size``, ``cluster_tolerance``, ``seed_height``, ``min_cluster_points``,
+        config: ``voxel_size``, ``cluster_tolerance``, ``seed_height``, ``min_cluster_points``,
             ``sor_*``.
 
     Returns:
@@ -183,19 +185,19 @@ def cloud_clusters(points: np.ndarray, height: np.ndarray, cfg: SegmentationConf
     n = len(points)
     if n == 0:
         return np.zeros(0, np.int32)
-    keys = np.floor(points / cfg.voxel_size).astype(np.int64)
+    keys = np.floor(points / config.voxel_size).astype(np.int64)
     _, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     inv = inv.reshape(-1)
     nv = len(first)
     cent = np.zeros((nv, 3))
     np.add.at(cent, inv, points)
     cent /= np.bincount(inv, minlength=nv)[:, None]
-    pairs = cKDTree(cent).query_pairs(cfg.cluster_tolerance, output_type="ndarray")
+    pairs = cKDTree(cent).query_pairs(config.cluster_tolerance, output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(nv, nv))
     _, vlab = connected_components(graph, directed=False)
     lab = vlab[inv]
-    seeds = np.bincount(lab[height > cfg.seed_height], minlength=vlab.max() + 1)
-    keep = seeds >= cfg.min_cluster_points
+    seeds = np.bincount(lab[height > config.seed_height], minlength=vlab.max() + 1)
+    keep = seeds >= config.min_cluster_points
     size = np.bincount(lab, minlength=len(keep))
     order = np.flatnonzero(keep)[np.argsort(-size[keep], kind="stable")]
     remap = np.full(len(keep), -1, np.int32)
@@ -203,6 +205,6 @@ def cloud_clusters(points: np.ndarray, height: np.ndarray, cfg: SegmentationConf
     labels = remap[lab]
     for k in range(len(order)):
         idx = np.flatnonzero(labels == k)
-        out = statistical_outliers(points[idx], cfg.sor_neighbours, cfg.sor_std_ratio)
+        out = statistical_outliers(points[idx], config.sor_neighbours, config.sor_std_ratio)
         labels[idx[out]] = -1
     return labels

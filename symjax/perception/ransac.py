@@ -75,34 +75,34 @@ def _refine(points: np.ndarray, n: np.ndarray, d: float, threshold: float, itera
 def ransac_plane(
     sample: np.ndarray,
     refine: np.ndarray,
-    cfg: SegmentationConfig,
+    config: SegmentationConfig,
     viewpoint: Any = None,
     rng: np.random.Generator | None = None,
 ) -> TablePlane:
     """RANSAC on ``sample``, least-squares refinement on ``refine``.
 
     Args:
-        sample: (cfg.ransac_sample, 3) float32 finite points the hypotheses are scored on.
+        sample: (config.ransac_sample, 3) float32 finite points the hypotheses are scored on.
         refine: (M, 3) float32 finite points of the refinement (a larger subsample).
-        cfg: Settings.
+        config: Settings.
         viewpoint: Optional sensor origin (3,) the normal is turned to face.
-        rng: Random generator of the hypotheses (default: seeded by ``cfg.seed``).
+        rng: Random generator of the hypotheses (default: seeded by ``config.seed``).
 
     Raises:
         DegenerateGeometryError: No valid hypothesis, or fewer than ``min_table_fraction`` of the
             sample on the plane.
     """
-    rng = rng or np.random.default_rng(cfg.seed)
+    rng = rng or np.random.default_rng(config.seed)
     # Triples with a repeated index are degenerate and score inf: cheaper than sampling without
     # replacement per hypothesis.
-    triples = rng.integers(0, len(sample), size=(cfg.ransac_hypotheses, 3), dtype=np.int32)
-    if cfg.up is None:
+    triples = rng.integers(0, len(sample), size=(config.ransac_hypotheses, 3), dtype=np.int32)
+    if config.up is None:
         up, cos_min = np.array([0.0, 0.0, 1.0], np.float32), 0.0
     else:
-        up = np.asarray(cfg.up, np.float32) / np.linalg.norm(cfg.up)
-        cos_min = float(np.cos(cfg.max_tilt))
+        up = np.asarray(config.up, np.float32) / np.linalg.norm(config.up)
+        cos_min = float(np.cos(config.max_tilt))
     costs, normals, offsets = plane_costs(
-        sample, triples, np.float32(cfg.inlier_threshold), up, np.float32(cos_min)
+        sample, triples, np.float32(config.inlier_threshold), up, np.float32(cos_min)
     )
     costs = np.asarray(costs)
     best = int(np.argmin(costs))
@@ -111,34 +111,36 @@ def ransac_plane(
             "no valid plane hypothesis (points collinear, or no plane within max_tilt of up)"
         )
     n = np.asarray(normals[best], np.float64)
-    n, d = _refine(refine, n, float(offsets[best]), cfg.inlier_threshold, cfg.refine_iterations)
+    n, d = _refine(
+        refine, n, float(offsets[best]), config.inlier_threshold, config.refine_iterations
+    )
     if viewpoint is not None:
         if float(n @ np.asarray(viewpoint, np.float64)) + d < 0:
             n, d = -n, -d
-    elif cfg.up is not None and float(n @ up) < 0:
+    elif config.up is not None and float(n @ up) < 0:
         n, d = -n, -d
     frac = float(
-        np.mean(np.abs(sample @ n.astype(np.float32) + np.float32(d)) < cfg.inlier_threshold)
+        np.mean(np.abs(sample @ n.astype(np.float32) + np.float32(d)) < config.inlier_threshold)
     )
-    if frac < cfg.min_table_fraction:
+    if frac < config.min_table_fraction:
         raise DegenerateGeometryError(
             f"no table: the best plane holds {frac:.1%} of the points, expected at least "
-            f"{cfg.min_table_fraction:.0%} (min_table_fraction)"
+            f"{config.min_table_fraction:.0%} (min_table_fraction)"
         )
     return TablePlane.create(n, d)
 
 
 def fit_table_plane(
-    points: Any, cfg: SegmentationConfig | None = None, viewpoint: Any = None
+    points: Any, config: SegmentationConfig | None = None, viewpoint: Any = None
 ) -> tuple[TablePlane, np.ndarray]:
     """Finds the dominant plane of a cloud.
 
     Args:
         points: (N, 3) metres; non-finite rows are ignored.
-        cfg: Settings (``ransac_*``, ``inlier_threshold``, ``up``, ``max_tilt``,
+        config: Settings (``ransac_*``, ``inlier_threshold``, ``up``, ``max_tilt``,
             ``min_table_fraction``, ``refine_sample``, ``seed``).
         viewpoint: Optional sensor origin (3,): the normal is turned to face it. Without it the
-            normal faces ``cfg.up`` when given.
+            normal faces ``config.up`` when given.
 
     Returns:
         ``(table, inliers)``: the plane and a bool (N,) mask of points within
@@ -149,7 +151,7 @@ def fit_table_plane(
         EmptyInputError: Fewer than 3 finite points.
         DegenerateGeometryError: No plane with ``min_table_fraction`` of the points.
     """
-    cfg = cfg or SegmentationConfig()
+    config = config or SegmentationConfig()
     p = np.asarray(points, dtype=np.float32)
     if p.ndim != 2 or p.shape[1] != 3:
         raise ShapeError(f"points must have shape (N, 3), got {p.shape}")
@@ -157,19 +159,22 @@ def fit_table_plane(
     idx = np.flatnonzero(finite)
     if len(idx) < 3:
         raise EmptyInputError(f"need at least 3 finite points to fit a table, got {len(idx)}")
-    rng = np.random.default_rng(cfg.seed)
-    sample, refine = subsample(idx, cfg, rng)
-    table = ransac_plane(p[sample], p[refine], cfg, viewpoint, rng)
+    rng = np.random.default_rng(config.seed)
+    sample, refine = subsample(idx, config, rng)
+    table = ransac_plane(p[sample], p[refine], config, viewpoint, rng)
     with np.errstate(invalid="ignore"):
-        inliers = np.abs(table.height(p)) < cfg.inlier_threshold
+        inliers = np.abs(table.height(p)) < config.inlier_threshold
     return table, inliers & finite
 
 
 def subsample(
-    idx: np.ndarray, cfg: SegmentationConfig, rng: np.random.Generator
+    idx: np.ndarray, config: SegmentationConfig, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of the RANSAC sample (``cfg.ransac_sample``, fixed size so that the kernel
-    compiles once) and of the refinement subsample (at most ``cfg.refine_sample``) from ``idx``."""
-    sample = rng.choice(idx, cfg.ransac_sample, replace=len(idx) < cfg.ransac_sample)
-    refine = idx if len(idx) <= cfg.refine_sample else rng.choice(idx, cfg.refine_sample, False)
+    """Indices of the RANSAC sample (``config.ransac_sample``, fixed size so that the kernel
+    compiles once) and of the refinement subsample (at most ``config.refine_sample``) from
+    ``idx``."""
+    sample = rng.choice(idx, config.ransac_sample, replace=len(idx) < config.ransac_sample)
+    refine = (
+        idx if len(idx) <= config.refine_sample else rng.choice(idx, config.refine_sample, False)
+    )
     return sample, refine

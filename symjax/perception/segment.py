@@ -15,6 +15,7 @@ import numpy as np
 
 from symjax.camera import Camera
 from symjax.errors import EmptyInputError, InvalidInputError, ShapeError
+from symjax.geometry import pixel_rays
 from symjax.observation import Observation, fill_mask
 from symjax.perception.clusters import cloud_clusters, grid_outliers, image_clusters
 from symjax.perception.config import SegmentationConfig
@@ -94,12 +95,9 @@ def _rays(camera: Camera) -> np.ndarray:
     K = np.asarray(camera.K, np.float64)
     key = (K.tobytes(), camera.width, camera.height)
     if key not in _RAYS_CACHE:
-        v, u = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float64)
-        yn = (v - K[1, 2]) / K[1, 1]
-        xn = (u - K[0, 2] - K[0, 1] * yn) / K[0, 0]
         if len(_RAYS_CACHE) > 8:
             _RAYS_CACHE.clear()
-        _RAYS_CACHE[key] = np.stack([xn, yn, np.ones_like(xn)], axis=-1).astype(np.float32)
+        _RAYS_CACHE[key] = pixel_rays(K, camera.height, camera.width).astype(np.float32)
     return _RAYS_CACHE[key]
 
 
@@ -347,7 +345,7 @@ def _segment_cloud(
 
 
 def segment(
-    data: Any, camera: Camera | None = None, cfg: SegmentationConfig | None = None
+    data: Any, camera: Camera | None = None, config: SegmentationConfig | None = None
 ) -> TableScene:
     """Finds the table and the object hypotheses on it.
 
@@ -356,7 +354,7 @@ def segment(
             ``camera``, a :class:`symjax.io.PointCloud`, or a cloud (N, 3) in metres, world frame.
         camera: The camera; required for a bare depth image, optional for a cloud that has a
             viewpoint (each object then gets a virtual camera at the viewpoint looking at it).
-        cfg: Settings; defaults to :class:`SegmentationConfig`.
+        config: Settings; defaults to :class:`SegmentationConfig`.
 
     Returns:
         A :class:`TableScene`; an empty table gives no objects and a warning, objects cut by the
@@ -371,20 +369,20 @@ def segment(
     from symjax.io.depth_frame import DepthFrame
     from symjax.io.point_cloud import PointCloud
 
-    cfg = cfg or SegmentationConfig()
-    if not isinstance(cfg, SegmentationConfig):
-        raise InvalidInputError(f"cfg must be a SegmentationConfig, got {type(cfg).__name__}")
+    config = config or SegmentationConfig()
+    if not isinstance(config, SegmentationConfig):
+        raise InvalidInputError(f"config must be a SegmentationConfig, got {type(config).__name__}")
     if camera is not None and not isinstance(camera, Camera):
         raise InvalidInputError(f"camera must be a symjax.Camera, got {type(camera).__name__}")
     if isinstance(data, DepthFrame):
-        return _segment_depth(data.depth, camera or data.camera, cfg)
+        return _segment_depth(data.depth, camera or data.camera, config)
     if isinstance(data, PointCloud):
-        return _segment_cloud(data.points, camera, data.viewpoint, cfg)
+        return _segment_cloud(data.points, camera, data.viewpoint, config)
     arr = np.asarray(data)
     if camera is not None and arr.shape == (camera.height, camera.width):
-        return _segment_depth(arr, camera, cfg)
+        return _segment_depth(arr, camera, config)
     if arr.ndim == 2 and arr.shape[1] == 3:
-        return _segment_cloud(arr, camera, None, cfg)
+        return _segment_cloud(arr, camera, None, config)
     if camera is None and arr.ndim == 2:
         raise InvalidInputError("a depth image needs its camera: segment(depth, camera)")
     raise ShapeError(

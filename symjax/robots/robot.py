@@ -19,7 +19,7 @@ import numpy as np
 from symjax.errors import FileFormatError, MissingFileError, ShapeError, unknown_name
 from symjax.resources import asset_dir
 
-__all__ = ["DH", "ROBOT_NAMES", "Robot", "flange_pose", "load"]
+__all__ = ["DH", "ROBOT_NAMES", "Robot", "flange_pose", "load", "robot_hand"]
 
 DH: dict[str, dict[str, tuple[float, ...]]] = {
     # Standard DH (Craig's "distal" convention: T_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)),
@@ -65,6 +65,17 @@ _INFO = {
     ),
 }
 ROBOT_NAMES = tuple(_INFO)
+
+
+def robot_hand(name: str) -> str:
+    """The hand on a robot's flange (``"sdh"`` on ``"kth"``, ``"barrett"`` on ``"uji"``).
+
+    Raises:
+        UnknownNameError: Not one of :data:`ROBOT_NAMES`.
+    """
+    if name not in _INFO:
+        raise unknown_name("robot", name, ROBOT_NAMES)
+    return _INFO[name].hand
 
 
 @dataclasses.dataclass(frozen=True)

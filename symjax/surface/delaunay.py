@@ -71,33 +71,33 @@ def _without_pinches(faces: np.ndarray, n_vertices: int, max_rounds: int = 20) -
     raise DegenerateGeometryError("could not build a manifold sheet from the triangulation")
 
 
-def delaunay_mesh(points: Any, camera: Any, cfg: DelaunayConfig | None = None):
+def delaunay_mesh(points: Any, camera: Any, config: DelaunayConfig | None = None):
     """Watertight baseline mesh of an observed (not mirrored) cloud, paper Section V-A.2.
 
     Args:
         points: (N, 3) observed world points, metres (e.g. ``Observation.valid_points()``).
         camera: The :class:`~symjax.camera.Camera` that saw them.
-        cfg: Baseline configuration (500 samples by default, as in the paper).
+        config: Baseline configuration (500 samples by default, as in the paper).
 
     Returns:
         A watertight, outward-oriented ``trimesh.Trimesh`` in world coordinates, metres.
 
     Raises:
-        EmptyInputError: With fewer than ``cfg.min_points`` points.
+        EmptyInputError: With fewer than ``config.min_points`` points.
         DegenerateGeometryError: If the points or their projection are collinear, or the edge
             filter leaves no triangle.
     """
     import trimesh
     from scipy.spatial import Delaunay, QhullError
 
-    cfg = cfg or DelaunayConfig()
-    if not isinstance(cfg, DelaunayConfig):
-        raise InvalidInputError(f"cfg must be a DelaunayConfig, got {type(cfg).__name__}")
+    config = config or DelaunayConfig()
+    if not isinstance(config, DelaunayConfig):
+        raise InvalidInputError(f"config must be a DelaunayConfig, got {type(config).__name__}")
     p = _as_points(points)
-    check_not_degenerate(p, cfg.min_points, allow_planar=True)
-    if p.shape[0] > cfg.n_samples:
-        rng = np.random.default_rng(cfg.seed)
-        p = p[np.sort(rng.choice(p.shape[0], cfg.n_samples, replace=False))]
+    check_not_degenerate(p, config.min_points, allow_planar=True)
+    if p.shape[0] > config.n_samples:
+        rng = np.random.default_rng(config.seed)
+        p = p[np.sort(rng.choice(p.shape[0], config.n_samples, replace=False))]
     uv, z = camera.project(p)
     uv, z = np.asarray(uv, np.float64), np.asarray(z, np.float64)
     if np.any(z <= 0):
@@ -112,8 +112,8 @@ def delaunay_mesh(points: Any, camera: Any, cfg: DelaunayConfig | None = None):
     e = _edges(faces)
     len2 = np.linalg.norm(uv[e[:, 0]] - uv[e[:, 1]], axis=1).reshape(-1, 3)
     len3 = np.linalg.norm(p[e[:, 0]] - p[e[:, 1]], axis=1).reshape(-1, 3)
-    max2 = cfg.max_edge_px or cfg.edge_factor * float(np.median(len2))
-    max3 = cfg.max_edge_m or cfg.edge_factor * float(np.median(len3))
+    max2 = config.max_edge_px or config.edge_factor * float(np.median(len2))
+    max3 = config.max_edge_m or config.edge_factor * float(np.median(len3))
     faces = faces[np.all((len2 <= max2) & (len3 <= max3), axis=1)]
     if faces.shape[0] == 0:
         raise DegenerateGeometryError(
@@ -133,7 +133,7 @@ def delaunay_mesh(points: Any, camera: Any, cfg: DelaunayConfig | None = None):
     n = front.shape[0]
 
     cam = np.asarray(camera.position, np.float64)
-    z_back = np.maximum(z.max(), z + cfg.thickness)
+    z_back = np.maximum(z.max(), z + config.thickness)
     back = cam + (front - cam) * (z_back / z)[:, None]
 
     # Contour edges are used by one face only; keep their direction as in that face.

@@ -17,6 +17,7 @@ from symjax.surface.poisson_grid import PoissonGrid
 
 __all__ = ["grid_to_mesh"]
 
+
 def _largest_component(verts: np.ndarray, faces: np.ndarray):
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -55,12 +56,12 @@ def _is_closed(faces: np.ndarray, n_vertices: int) -> bool:
     return bool(np.all(fwd[1:] != fwd[:-1]) and np.array_equal(fwd, rev))
 
 
-def grid_to_mesh(grid: PoissonGrid, cfg: PoissonConfig):
+def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig):
     """Marching cubes of one solved grid into a closed, outward-oriented mesh.
 
     Args:
         grid: A single-view :class:`PoissonGrid`.
-        cfg: Configuration (``keep_largest``).
+        config: Configuration (``keep_largest``).
 
     Returns:
         A watertight ``trimesh.Trimesh`` in world coordinates, metres.
@@ -96,7 +97,7 @@ def grid_to_mesh(grid: PoissonGrid, cfg: PoissonConfig):
     verts, faces, _, _ = measure.marching_cubes(vol, level=iso)
     verts = np.asarray(grid.origin, np.float64) + (verts - 1.0) * float(grid.cell)
     faces = faces.astype(np.int64)
-    if cfg.keep_largest:
+    if config.keep_largest:
         verts, faces = _largest_component(verts, faces)
     if _signed_volume(verts, faces) < 0:
         faces = faces[:, ::-1]
@@ -106,5 +107,3 @@ def grid_to_mesh(grid: PoissonGrid, cfg: PoissonConfig):
         )
     mesh = trimesh.Trimesh(verts, faces, process=False)
     return mesh
-
-

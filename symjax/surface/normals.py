@@ -86,25 +86,25 @@ def check_not_degenerate(points: np.ndarray, min_points: int, allow_planar: bool
         )
 
 
-def outlier_mask(points: Any, cfg: NormalsConfig | None = None) -> np.ndarray:
+def outlier_mask(points: Any, config: NormalsConfig | None = None) -> np.ndarray:
     """Statistical outlier filter: True for points to keep.
 
-    A point is an outlier when the mean distance to its ``cfg.outlier_k`` nearest neighbours
-    exceeds the cloud's mean of that distance by ``cfg.outlier_std`` standard deviations.
+    A point is an outlier when the mean distance to its ``config.outlier_k`` nearest neighbours
+    exceeds the cloud's mean of that distance by ``config.outlier_std`` standard deviations.
 
     Args:
         points: (N, 3) points, metres.
-        cfg: Normal estimation configuration.
+        config: Normal estimation configuration.
 
     Returns:
         (N,) boolean mask of inliers.
     """
-    cfg = cfg or NormalsConfig()
+    config = config or NormalsConfig()
     p = _as_points(points)
-    if cfg.outlier_k == 0 or p.shape[0] <= cfg.outlier_k + 1:
+    if config.outlier_k == 0 or p.shape[0] <= config.outlier_k + 1:
         return np.ones(p.shape[0], dtype=bool)
-    d, _ = _knn(p, cfg.outlier_k + 1)
-    return _inliers(d, cfg)
+    d, _ = _knn(p, config.outlier_k + 1)
+    return _inliers(d, config)
 
 
 def _knn(p: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -133,7 +133,7 @@ def _plane_normals(p: np.ndarray, idx: np.ndarray, viewpoints) -> np.ndarray:
 
 
 def estimate_normals(
-    points: Any, viewpoints: Any = None, cfg: NormalsConfig | None = None
+    points: Any, viewpoints: Any = None, config: NormalsConfig | None = None
 ) -> np.ndarray:
     """Unit normals by a plane fit to each point's k nearest neighbours.
 
@@ -141,29 +141,29 @@ def estimate_normals(
         points: (N, 3) points, metres.
         viewpoints: Where each point was seen from: (3,) for all points or (N, 3) per point,
             metres. Each normal is flipped to face its viewpoint; None leaves the sign arbitrary.
-        cfg: Configuration (``cfg.k`` neighbours, the point itself included).
+        config: Configuration (``config.k`` neighbours, the point itself included).
 
     Returns:
         (N, 3) unit normals.
 
     Raises:
-        EmptyInputError: With fewer than ``cfg.k`` points.
+        EmptyInputError: With fewer than ``config.k`` points.
         DegenerateGeometryError: If the cloud is collinear.
     """
-    cfg = cfg or NormalsConfig()
+    config = config or NormalsConfig()
     p = _as_points(points)
-    check_not_degenerate(p, max(cfg.k, 3), allow_planar=True)
+    check_not_degenerate(p, max(config.k, 3), allow_planar=True)
     vp = None
     if viewpoints is not None:
         vp = np.asarray(viewpoints, dtype=np.float64)
         if vp.shape not in ((3,), p.shape):
             raise ShapeError(f"viewpoints must have shape (3,) or {p.shape}, got {vp.shape}")
         vp = np.broadcast_to(vp, p.shape)
-    _, idx = _knn(p, cfg.k)
+    _, idx = _knn(p, config.k)
     return _plane_normals(p, idx, vp)
 
 
-def oriented_completion(result: Any, camera: Any, cfg: NormalsConfig | None = None):
+def oriented_completion(result: Any, camera: Any, config: NormalsConfig | None = None):
     """Oriented normals of one completed cloud from the symmetry search.
 
     Observed points face the camera, mirrored points face the camera mirrored across the
@@ -173,7 +173,7 @@ def oriented_completion(result: Any, camera: Any, cfg: NormalsConfig | None = No
     Args:
         result: A single-view :class:`~symjax.symmetry.SymmetryResult`.
         camera: The :class:`~symjax.camera.Camera` that took the view.
-        cfg: Normal estimation configuration.
+        config: Normal estimation configuration.
 
     Returns:
         :class:`OrientedPoints` with the plausibility as weights (1 for observed points).
@@ -182,7 +182,7 @@ def oriented_completion(result: Any, camera: Any, cfg: NormalsConfig | None = No
 
     if np.ndim(result.points) != 2:
         raise ShapeError("oriented_completion() needs one view; index the batch first: result[i]")
-    cfg = cfg or NormalsConfig()
+    config = config or NormalsConfig()
     pts = np.asarray(result.completed_points, dtype=np.float64)
     keep = np.asarray(result.completed_valid, dtype=bool)
     w = np.asarray(result.completed_plausibility, dtype=np.float64)
@@ -191,12 +191,12 @@ def oriented_completion(result: Any, camera: Any, cfg: NormalsConfig | None = No
     pts, w, mirrored = pts[keep], w[keep], mirrored[keep]
     if pts.shape[0] == 0:
         raise EmptyInputError("the completed cloud has no valid points")
-    check_not_degenerate(pts, max(cfg.k, cfg.outlier_k + 1, 3), allow_planar=True)
+    check_not_degenerate(pts, max(config.k, config.outlier_k + 1, 3), allow_planar=True)
     cam = np.asarray(camera.position, dtype=np.float64)
     plane_n = np.asarray(result.normal, dtype=np.float64)
     cam_m = np.asarray(reflect(cam[None, :], plane_n, float(result.offset)))[0]
     vp = np.where(mirrored[:, None], cam_m[None, :], cam[None, :])
-    d, idx = _knn(pts, max(cfg.k, cfg.outlier_k + 1))
-    normals = _plane_normals(pts, idx[:, : cfg.k], vp)
-    inl = _inliers(d, cfg) if cfg.outlier_k > 0 else np.ones(pts.shape[0], bool)
+    d, idx = _knn(pts, max(config.k, config.outlier_k + 1))
+    normals = _plane_normals(pts, idx[:, : config.k], vp)
+    inl = _inliers(d, config) if config.outlier_k > 0 else np.ones(pts.shape[0], bool)
     return OrientedPoints(pts[inl], normals[inl], w[inl], mirrored[inl])

@@ -39,6 +39,7 @@ from symjax.surface.normals import _as_points, check_not_degenerate
 
 __all__ = ["PoissonGrid", "pack_views", "solve_grid", "solve_grids"]
 
+
 @pytree_dataclass
 class PoissonGrid:
     """The solved indicator function of one view (or a batch, with a leading view axis).
@@ -181,6 +182,7 @@ def _poisson_batch_jit(points, normals, weights, valid, cfg: PoissonConfig, chun
 # ---------------------------------------------------------------------------------------------
 # Host side: validation, packing, marching cubes
 
+
 def _check_view(points, normals, weights, cfg: PoissonConfig, i: int | None = None):
     what = "points" if i is None else f"points of view {i}"
     p = _as_points(points, what)
@@ -211,19 +213,19 @@ def _check_view(points, normals, weights, cfg: PoissonConfig, i: int | None = No
     return p, n, w
 
 
-def pack_views(views: Sequence[tuple], cfg: PoissonConfig, n_points: int | None = None):
+def pack_views(views: Sequence[tuple], config: PoissonConfig, n_points: int | None = None):
     """Validates views and pads them to one point count.
 
     Args:
         views: Sequence of ``(points (N_i, 3), normals (N_i, 3), weights (N_i,) or None)``.
         n_points: Padded point count (default: the largest N_i).
-        cfg: Configuration (for ``min_points``).
+        config: Configuration (for ``min_points``).
 
     Returns:
         ``(points, normals, weights, valid)`` float32 arrays (B, N, 3), (B, N, 3), (B, N), bool
         (B, N).
     """
-    checked = [_check_view(*v, cfg, i=i) for i, v in enumerate(views)]
+    checked = [_check_view(*v, config, i=i) for i, v in enumerate(views)]
     if not checked:
         raise InvalidInputError("views is empty; expected at least one (points, normals, weights)")
     n_max = max(c[0].shape[0] for c in checked)
@@ -241,7 +243,7 @@ def pack_views(views: Sequence[tuple], cfg: PoissonConfig, n_points: int | None 
     return P, Nn, Wt, V
 
 
-def solve_grid(points, normals, weights, valid, cfg: PoissonConfig) -> PoissonGrid:
+def solve_grid(points, normals, weights, valid, config: PoissonConfig) -> PoissonGrid:
     """Solves the indicator function of one packed view (jitted; arrays from :func:`pack_views`).
 
     Args:
@@ -249,13 +251,13 @@ def solve_grid(points, normals, weights, valid, cfg: PoissonConfig) -> PoissonGr
         normals: (N, 3) unit outward normals.
         weights: (N,) non-negative weights.
         valid: (N,) bool.
-        cfg: Configuration.
+        config: Configuration.
     """
-    return _poisson_jit(points, normals, weights, valid, cfg)
+    return _poisson_jit(points, normals, weights, valid, config)
 
 
 def solve_grids(
-    points, normals, weights, valid, cfg: PoissonConfig, chunk: int = 8
+    points, normals, weights, valid, config: PoissonConfig, chunk: int = 8
 ) -> PoissonGrid:
     """Solves the indicator functions of a padded batch of views in one jitted call.
 
@@ -264,7 +266,7 @@ def solve_grids(
         normals: (B, N, 3) unit outward normals.
         weights: (B, N) non-negative weights.
         valid: (B, N) bool, which rows are real points.
-        cfg: Configuration.
+        config: Configuration.
         chunk: Views solved at once (0 = all; :class:`symjax.execution.ExecutionConfig`).
 
     Returns:
@@ -284,6 +286,5 @@ def solve_grids(
     if pad:
         # Repeat the first view to fill the last chunk; the copies are dropped below.
         arrs = [jnp.concatenate([a, jnp.repeat(a[:1], pad, axis=0)], axis=0) for a in arrs]
-    out = _poisson_batch_jit(*arrs, cfg, chunk)
+    out = _poisson_batch_jit(*arrs, config, chunk)
     return jax.tree_util.tree_map(lambda x: x[:b], out) if pad else out
-

@@ -102,12 +102,20 @@ class SymmetryConfig:
             raise ConfigError(f"angle_range must be in [0, pi/2] rad, got {self.angle_range}")
         if not self.shift_min <= self.shift_max:
             raise ConfigError(f"shift_min {self.shift_min} must be <= shift_max {self.shift_max}")
-        if self.w_outside < 0 or self.w_inside < 0 or self.depth_tolerance < 0:
-            raise ConfigError("weights and depth_tolerance must be >= 0")
+        for name in ("w_outside", "w_inside", "depth_tolerance", "shift_min", "shift_max"):
+            v = getattr(self, name)
+            # NaN fails every comparison: test for the accepted range, not against it.
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise ConfigError(f"{name} must be a finite number, got {v!r}")
+        for name in ("w_outside", "w_inside", "depth_tolerance"):
+            if not getattr(self, name) >= 0:
+                raise ConfigError(f"{name} must be >= 0, got {getattr(self, name)!r}")
         if self.normalize not in ("subset", "all"):
             raise ConfigError(f"normalize must be 'subset' or 'all', got {self.normalize!r}")
-        if self.plausibility_px <= 0 or self.plausibility_depth <= 0:
-            raise ConfigError("plausibility scales must be > 0")
+        for name in ("plausibility_px", "plausibility_depth"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise ConfigError(f"{name} must be a finite number > 0, got {v!r}")
 
     @property
     def n_hypotheses(self) -> int:

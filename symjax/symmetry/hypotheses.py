@@ -90,7 +90,7 @@ def _plane_grid(n, m0, c, angles, shifts):
 
 
 def search_view(
-    view: ViewArrays, cfg: SymmetryConfig, gate, chunk_planes: int = 64
+    view: ViewArrays, config: SymmetryConfig, gate, chunk_planes: int = 64
 ) -> SymmetryResult:
     """The whole search for one view (traced; jit and vmap are applied by the callers).
 
@@ -100,12 +100,12 @@ def search_view(
     n = view.table_normal
     c, s, m0, L = _initial_plane(view)
     side = jnp.cross(n, m0)
-    A, S = cfg.n_angles, cfg.n_shifts
+    A, S = config.n_angles, config.n_shifts
     unit_a = jnp.linspace(-1.0, 1.0, A) if A > 1 else jnp.zeros(1)
     unit_s = jnp.linspace(0.0, 1.0, S) if S > 1 else jnp.full(1, 0.5)
 
     starts = [jnp.float32(0.0)]
-    if cfg.init == "eigen+box":
+    if config.init == "eigen+box":
         # Of the rectangle's two axes keep, as Eq. 1 does among the eigenvectors, the plane whose
         # normal is closest to the viewing direction: the other one maps the visible surface
         # onto itself, scores well and completes nothing behind the object.
@@ -117,17 +117,17 @@ def search_view(
     starts = jnp.stack(starts)
 
     # Level 0: the paper's fan of n x m hypotheses around every initial axis, one vmap.
-    angles0 = starts[:, None] + (unit_a * cfg.angle_range)[None, :]  # (n_starts, A)
-    shifts0 = (cfg.shift_min + unit_s * (cfg.shift_max - cfg.shift_min)) * L  # (S,)
+    angles0 = starts[:, None] + (unit_a * config.angle_range)[None, :]  # (n_starts, A)
+    shifts0 = (config.shift_min + unit_s * (config.shift_max - config.shift_min)) * L  # (S,)
     normals, offsets = _plane_grid(n, m0, c, angles0.reshape(-1), shifts0)
-    out0, in0, votes0 = score_planes(view, normals, offsets, cfg, gate, chunk_planes)
+    out0, in0, votes0 = score_planes(view, normals, offsets, config, gate, chunk_planes)
     k = jnp.argmin(votes0)
     ks, rem = k // (A * S), k % (A * S)
     ia, js = rem // S, rem % S
     # Each initial axis keeps its best orientations (the best shift of each) and refines them on
     # their own: on the coarse grid the right plane can lose to a wrong one only because its
     # true shift lies between two steps, so one chain per axis is not enough.
-    n_chains = min(cfg.n_chains, A)
+    n_chains = min(config.n_chains, A)
     per_angle = votes0.reshape(-1, A, S)
     best_shift = jnp.argmin(per_angle, axis=2)  # (n_starts, A)
     best_vote = jnp.min(per_angle, axis=2)
@@ -139,8 +139,8 @@ def search_view(
         best_vote[rows, top].reshape(-1),
     )
     chain_start = jnp.repeat(jnp.arange(per_angle.shape[0]), n_chains)
-    da = cfg.angle_range / max((A - 1) / 2, 1)
-    ds = (cfg.shift_max - cfg.shift_min) * L / max(S - 1, 1)
+    da = config.angle_range / max((A - 1) / 2, 1)
+    ds = (config.shift_max - config.shift_min) * L / max(S - 1, 1)
 
     def refine_level(chain, steps):
         best_a, best_s, best_vote = chain
@@ -148,7 +148,7 @@ def search_view(
         angles = best_a + unit_a * da
         shifts = best_s + (2.0 * unit_s - 1.0) * ds
         normals, offsets = _plane_grid(n, m0, c, angles, shifts)
-        _, _, votes = score_planes(view, normals, offsets, cfg, gate, chunk_planes)
+        _, _, votes = score_planes(view, normals, offsets, config, gate, chunk_planes)
         k = jnp.argmin(votes)
         better = votes[k] < best_vote
         new = (
@@ -159,7 +159,7 @@ def search_view(
         return new, (angles, shifts, votes.reshape(A, S))
 
     r_angles, r_shifts, r_votes = [], [], []
-    for _level in range(cfg.n_refine):
+    for _level in range(config.n_refine):
         chains, (ang, sh, vo) = jax.vmap(refine_level, in_axes=(0, None))(chains, (da, ds))
         da = da / max((A - 1) / 2, 1)
         ds = 2.0 * ds / max(S - 1, 1)
@@ -167,7 +167,7 @@ def search_view(
         r_angles.append(ang)
         r_shifts.append(sh)
         r_votes.append(vo)
-    handicap = jnp.where(chain_start > 0, 1.0 + cfg.start_margin, 1.0)
+    handicap = jnp.where(chain_start > 0, 1.0 + config.start_margin, 1.0)
     win = jnp.argmin(chains[2] * handicap)
     best_a, best_s, best_vote = chains[0][win], chains[1][win], chains[2][win]
     r_angles = [a[win] for a in r_angles]
@@ -177,10 +177,12 @@ def search_view(
     normal = jnp.cos(best_a) * m0 + jnp.sin(best_a) * side
     offset = normal @ c + best_s
     mirrored = reflect(view.points, normal, offset)
-    delta1, delta2, _ = point_terms(view, mirrored, cfg)
+    delta1, delta2, _ = point_terms(view, mirrored, config)
     keep = view.valid & (delta2 <= 0.0)
-    plaus = jnp.exp(-delta1 / cfg.plausibility_px**2) * jnp.exp(-delta2 / cfg.plausibility_depth)
-    R = cfg.n_refine
+    plaus = jnp.exp(-delta1 / config.plausibility_px**2) * jnp.exp(
+        -delta2 / config.plausibility_depth
+    )
+    R = config.n_refine
     return SymmetryResult(
         normal=normal,
         offset=offset,
@@ -206,5 +208,3 @@ def search_view(
         mirrored_keep=keep,
         plausibility=jnp.where(view.valid, plaus, 0.0),
     )
-
-

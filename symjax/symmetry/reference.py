@@ -15,7 +15,7 @@ __all__ = ["score_planes_numpy"]
 
 
 def score_planes_numpy(
-    obs: Observation, normals: np.ndarray, offsets: np.ndarray, cfg: SymmetryConfig
+    obs: Observation, normals: np.ndarray, offsets: np.ndarray, config: SymmetryConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """Scores planes ``{x : n . x = d}`` of one view with a Python loop over hypotheses.
 
@@ -23,7 +23,7 @@ def score_planes_numpy(
         obs: One observation.
         normals: (P, 3) unit plane normals.
         offsets: (P,) plane offsets, metres.
-        cfg: Weights, tolerance and normalisation of the vote.
+        config: Weights, tolerance and normalisation of the vote.
 
     Returns:
         ``(outside, inside)``: (P,) ``E[delta_1]`` (pixels^2) and ``E[delta_2]`` (metres).
@@ -53,10 +53,10 @@ def score_planes_numpy(
         is_out = ~is_in
         d1 = np.where(front, dist**2, float(H * H + W * W))
         observed = depth[rr.astype(int), cc.astype(int)]
-        ahead = is_in & (observed > 0) & (z < observed - cfg.depth_tolerance)
+        ahead = is_in & (observed > 0) & (z < observed - config.depth_tolerance)
         d1_sum, n_out = float(d1[is_out].sum()), int(is_out.sum())
         d2_sum, n_in = float((observed - z)[ahead].sum()), int(is_in.sum())
-        if cfg.normalize == "subset":
+        if config.normalize == "subset":
             outside[h] = d1_sum / max(n_out, 1)
             inside[h] = d2_sum / max(n_in, 1)
         else:

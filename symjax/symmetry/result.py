@@ -13,6 +13,7 @@ from symjax.errors import ShapeError
 
 __all__ = ["SymmetryResult"]
 
+
 @pytree_dataclass
 class SymmetryResult:
     """Outcome of the search for one view (or a batch, with a leading view axis).
@@ -107,4 +108,3 @@ class SymmetryResult:
     def __getitem__(self, i) -> SymmetryResult:
         """The result of view ``i`` of a batched result."""
         return jax.tree_util.tree_map(lambda x: x[i], self)
-

@@ -29,7 +29,7 @@ def _project(view: ViewArrays, q):
     return u, v, z
 
 
-def point_terms(view: ViewArrays, q, cfg: SymmetryConfig):
+def point_terms(view: ViewArrays, q, config: SymmetryConfig):
     """Per-point visibility terms of mirrored points q (N, 3).
 
     Returns:
@@ -53,7 +53,7 @@ def point_terms(view: ViewArrays, q, cfg: SymmetryConfig):
     # A mirrored point behind the camera contradicts any hypothesis: the worst outside distance.
     far = jnp.float32(H * H + W * W)
     delta1 = jnp.where(inside, 0.0, jnp.where(in_front_of_cam, dist_px * dist_px, far))
-    in_front = inside & (obs_depth > 0) & (z < obs_depth - cfg.depth_tolerance)
+    in_front = inside & (obs_depth > 0) & (z < obs_depth - config.depth_tolerance)
     delta2 = jnp.where(in_front, obs_depth - z, 0.0)
     return delta1, delta2, inside
 
@@ -105,20 +105,20 @@ def _unprojectable(view: ViewArrays, normals, offsets):
 
 
 def score_planes(
-    view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate=None, chunk: int = 64
+    view: ViewArrays, normals, offsets, config: SymmetryConfig, gate=None, chunk: int = 64
 ):
     """Eq. 3 for many planes of one view.
 
     Mirrored points are looked up in the packed distance-transform/depth image; outside the mask
     the squared distance (pixels^2) counts, inside the mask the depth by which a point lies in
     front of the observed surface (metres); both are averaged over their subset of points (or
-    over all points, ``cfg.normalize="all"``).
+    over all points, ``config.normalize="all"``).
 
     Args:
         view: One view.
         normals: (P, 3) unit plane normals.
         offsets: (P,) plane offsets, metres (planes ``{x : n . x = d}``).
-        cfg: Weights, tolerance, normalisation.
+        config: Weights, tolerance, normalisation.
         gate: Optional scalar bool, traced and not batched: False scores every plane as the worst.
             Defaults to "all inputs finite". Callers that ``vmap`` over views pass one gate for
             the whole batch so that the stage stays a conditional (see below).
@@ -132,7 +132,7 @@ def score_planes(
         gate = gate & jnp.isfinite(view.points).all()
     P = normals.shape[0]
     if chunk == 0 or P <= chunk:
-        outside, inside = _score_chunk(view, normals, offsets, cfg, gate)
+        outside, inside = _score_chunk(view, normals, offsets, config, gate)
     else:
         # Chunks keep the (hypotheses x points) intermediates in cache: 1,000 planes x 40,000
         # points would otherwise stream 160 MB per array through memory.
@@ -140,11 +140,11 @@ def score_planes(
         n = jnp.concatenate([normals, jnp.repeat(normals[-1:], pad, axis=0)])
         d = jnp.concatenate([offsets, jnp.repeat(offsets[-1:], pad, axis=0)])
         outside, inside = jax.lax.map(
-            lambda nd: _score_chunk(view, nd[0], nd[1], cfg, gate),
+            lambda nd: _score_chunk(view, nd[0], nd[1], config, gate),
             (n.reshape(-1, chunk, 3), d.reshape(-1, chunk)),
         )
         outside, inside = outside.reshape(-1)[:P], inside.reshape(-1)[:P]
-    return outside, inside, cfg.w_outside * outside + cfg.w_inside * inside
+    return outside, inside, config.w_outside * outside + config.w_inside * inside
 
 
 def _score_chunk(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):

@@ -25,6 +25,7 @@ from symjax.symmetry.view import ViewArrays, prepare_view
 
 __all__ = ["complete", "search", "search_batch"]
 
+
 @functools.partial(jax.jit, static_argnums=(1, 2))
 def _search_jit(view: ViewArrays, cfg: SymmetryConfig, chunk_planes: int) -> SymmetryResult:
     return search_view(view, cfg, jnp.isfinite(view.points).all(), chunk_planes)
@@ -37,9 +38,7 @@ def _search_batch_jit(
     # lax.map with batch_size vmaps chunks of views: every hypothesis of a chunk in one vmap,
     # while memory stays bounded for 128 views x 40k points.
     gate = jnp.isfinite(views.points).all()
-    return jax.lax.map(
-        lambda v: search_view(v, cfg, gate, chunk_planes), views, batch_size=chunk
-    )
+    return jax.lax.map(lambda v: search_view(v, cfg, gate, chunk_planes), views, batch_size=chunk)
 
 
 def search(

@@ -13,6 +13,7 @@ from symjax.observation import MIN_POINTS, Observation
 
 __all__ = ["ViewArrays", "prepare_view"]
 
+
 @pytree_dataclass
 class ViewArrays:
     """Device arrays of one view (or a batch, with a leading axis) as the kernel reads them.
@@ -35,6 +36,7 @@ class ViewArrays:
     t_wc: Any
     K: Any
     image: Any
+
 
 # ---------------------------------------------------------------------------------------------
 # Host-side preparation
@@ -82,5 +84,3 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
         K=jnp.asarray(np.asarray(obs.camera.K, np.float32)),
         image=jnp.asarray(np.stack([dt.astype(np.float32), depth], axis=-1)),
     )
-
-

@@ -22,9 +22,11 @@ from symjax.grasp.schedule import control, snap_steps
 
 __all__ = ["run"]
 
+
 def _contacts_mjx(d):
     c = d._impl.contact
     return c.dist, c.pos, c.frame[:, 0, :], c.geom1, c.geom2
+
 
 @functools.lru_cache(maxsize=8)
 def _mjx_runner(scene: GraspScene):
@@ -78,4 +80,3 @@ def run(
         parts.append({k: np.asarray(v)[:m] for k, v in out.items()})
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     return GraspOutcomes(**merged, backend="mjx")
-

@@ -22,6 +22,7 @@ __all__ = ["run"]
 
 _MAX_C_CONTACTS = 64
 
+
 @functools.lru_cache(maxsize=8)
 def _schedule_fn(scene: GraspScene):
     n = scene.config.n_steps
@@ -114,4 +115,3 @@ def run(
         parts.append({k: np.asarray(v) for k, v in out.items()})
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     return GraspOutcomes(**merged, backend="mujoco")
-

@@ -1,0 +1,63 @@
+"""What every command shares: ``--config NAME|PATH`` first, then per-field overrides generated
+by tyro from the config dataclasses, typed errors as one line and an exit status."""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+from symjax.errors import SymjaxError
+
+__all__ = ["CONFIG_HELP", "parse", "preset_argument", "run"]
+
+T = TypeVar("T")
+
+CONFIG_HELP = (
+    "Preset name (ci, default, kth, paper, uji) or the path of a TOML file in the same layout;"
+    " the options below default to its values and override them."
+)
+
+
+def preset_argument(argv: Sequence[str], default: str = "default") -> str:
+    """The value of ``--config`` in ``argv`` (``--config X`` or ``--config=X``), else default."""
+    for i, a in enumerate(argv):
+        if a == "--config" and i + 1 < len(argv):
+            return argv[i + 1]
+        if a.startswith("--config="):
+            return a.split("=", 1)[1]
+    return default
+
+
+def parse(cls: type[T], argv: Sequence[str], prog: str, description: str | None = None) -> T:
+    """Parses ``argv`` into ``cls``, a dataclass with a ``config`` field.
+
+    Fields of ``cls`` named like a preset table (``symmetry``, ``execution``, ...) or
+    ``evaluation`` default to the preset's values, so ``--help`` shows what the preset sets.
+    """
+    import tyro
+
+    from symjax import configs
+
+    preset = configs.load(preset_argument(argv))
+    take = {"evaluation", *configs.SECTIONS}
+    values = {f.name: getattr(preset, f.name) for f in dataclasses.fields(cls) if f.name in take}
+    default = cls(config=preset.name, **values)
+    return tyro.cli(cls, args=list(argv), default=default, prog=prog, description=description)
+
+
+def run(prog: str, body: Callable[[], int]) -> int:
+    """Runs a command body: exit 2 with one line on a :class:`SymjaxError`, 130 on Ctrl-C."""
+    try:
+        return int(body() or 0)
+    except SymjaxError as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 2
+    except SystemExit as e:  # tyro's --help (0) and its argument errors (2)
+        return int(e.code or 0) if not isinstance(e.code, str) else 2
+    except KeyboardInterrupt:
+        print(
+            f"{prog}: interrupted; finished results are kept, run again to resume", file=sys.stderr
+        )
+        return 130
