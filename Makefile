@@ -20,16 +20,17 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: venv
-	$(PY) scripts/eval_dataset.py
+	$(VENV)/bin/symjax eval
 
 quick-demo: venv
-	$(PY) scripts/demo.py
+	$(VENV)/bin/symjax demo
 
 test: venv
 	$(PY) -m pytest -q --durations=15
 
 lint: venv
 	$(PY) -m ruff check symjax tests scripts
+	$(PY) -m ruff format --check symjax tests scripts
 
 bench: venv
 	@for b in scripts/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done

@@ -2,7 +2,7 @@
 
 For each synthetic scene (3, 4 and 6 objects with stereo-like depth noise) it measures the
 compile time of the RANSAC kernel, the first call, and the steady per-frame time of
-``symjax.perception.segment`` on the depth image, and, as the reference measured in the same
+``symjax.perception.segmentation`` on the depth image, and, as the reference measured in the same
 run, the same scene segmented from its point cloud (voxel grid + k-d tree Euclidean clustering,
 the PCL approach the paper's UJI platform uses). Prints one JSON line per case and writes
 ``bench/results/perception.json`` atomically.

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from typing import Any
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from symjax._pytree import pytree_dataclass, static_field
+from symjax.array_types import ArrayLike
 from symjax.errors import CameraError, ShapeError
 from symjax.geometry import pixel_rays
 
@@ -31,7 +33,7 @@ class Camera:
     height: int = static_field()
 
     @classmethod
-    def create(cls, K: Any, T_world_cam: Any, width: int, height: int) -> Camera:
+    def create(cls, K: ArrayLike, T_world_cam: ArrayLike, width: int, height: int) -> Camera:
         """Builds a validated camera from array-likes (float64 numpy, converted lazily by JAX).
 
         Raises:
@@ -70,12 +72,12 @@ class Camera:
     @classmethod
     def look_at(
         cls,
-        position: Any,
-        target: Any,
-        K: Any,
+        position: ArrayLike,
+        target: ArrayLike,
+        K: ArrayLike,
         width: int,
         height: int,
-        up: Any = (0.0, 0.0, 1.0),
+        up: ArrayLike = (0.0, 0.0, 1.0),
     ) -> Camera:
         """A camera at ``position`` (m) whose optical axis points at ``target`` (m).
 
@@ -108,13 +110,13 @@ class Camera:
         """Camera centre in world coordinates, shape (3,), metres."""
         return self.T_world_cam[:3, 3]
 
-    def world_to_camera(self, points):
+    def world_to_camera(self, points: ArrayLike) -> jax.Array:
         """Points (..., 3) world -> camera coordinates (..., 3)."""
         R = self.T_world_cam[:3, :3]
         t = self.T_world_cam[:3, 3]
         return (points - t) @ R
 
-    def project(self, points):
+    def project(self, points: ArrayLike) -> tuple[jax.Array, jax.Array]:
         """Projects world points to pixels.
 
         Args:
@@ -132,7 +134,7 @@ class Camera:
         v = K[1, 1] * xc[..., 1] / zs + K[1, 2]
         return jnp.stack([u, v], axis=-1), z
 
-    def backproject(self, depth):
+    def backproject(self, depth: ArrayLike) -> tuple[jax.Array, jax.Array]:
         """Back-projects a depth image to world points.
 
         Args:
@@ -154,7 +156,7 @@ class Camera:
         t = self.T_world_cam[:3, 3]
         return xc @ R.T + t, z > 0
 
-    def transformed(self, T_new_world) -> Camera:
+    def transformed(self, T_new_world: ArrayLike) -> Camera:
         """The same camera after a rigid motion ``T_new_world`` (4, 4) of the world frame."""
         T = np.asarray(T_new_world, dtype=np.float64) @ np.asarray(self.T_world_cam)
         return Camera.create(np.asarray(self.K), T, self.width, self.height)

@@ -15,6 +15,7 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
+from symjax.array_types import ArrayLike, MeshLike
 from symjax.errors import DegenerateGeometryError, EmptyInputError, InvalidInputError, ShapeError
 
 __all__ = [
@@ -33,7 +34,7 @@ __all__ = [
 ]
 
 
-def pixel_rays(K: Any, height: int, width: int, xp: Any = np) -> Any:
+def pixel_rays(K: ArrayLike, height: int, width: int, xp: Any = np) -> Any:
     """Camera-frame ray of every pixel centre, scaled to unit z.
 
     Args:
@@ -54,7 +55,9 @@ def pixel_rays(K: Any, height: int, width: int, xp: Any = np) -> Any:
     return xp.stack([xn, yn, xp.ones_like(xn)], axis=-1)
 
 
-def backproject(depth: np.ndarray, K: Any, T_world_cam: Any, select: Any = None) -> np.ndarray:
+def backproject(
+    depth: np.ndarray, K: ArrayLike, T_world_cam: ArrayLike, select: ArrayLike = None
+) -> np.ndarray:
     """World points of the pixels of a depth image.
 
     Args:
@@ -73,7 +76,7 @@ def backproject(depth: np.ndarray, K: Any, T_world_cam: Any, select: Any = None)
     return (rays * depth[sel].astype(np.float64)[:, None]) @ T[:3, :3].T + T[:3, 3]
 
 
-def reflect(points: Any, normal: Any, offset: Any) -> Any:
+def reflect(points: ArrayLike, normal: ArrayLike, offset: ArrayLike) -> Any:
     """Mirrors points (..., 3) across the plane ``{x : normal . x = offset}`` (Eq. 2).
 
     Works on numpy and JAX arrays alike; ``normal`` (3,) must be a unit vector.
@@ -88,7 +91,7 @@ def rot_z(angle: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def euler_zyx(R: Any) -> Any:
+def euler_zyx(R: ArrayLike) -> Any:
     """JAX: intrinsic z-y-x angles (a, b, c) with ``R = Rz(a) Ry(b) Rx(c)``, shape (..., 3).
 
     At gimbal lock (the x axis vertical) only ``a + c`` or ``a - c`` is defined; ``a`` is then 0.
@@ -103,7 +106,7 @@ def euler_zyx(R: Any) -> Any:
     return jnp.stack([a, b, c], axis=-1)
 
 
-def rot_zyx(e: Any) -> Any:
+def rot_zyx(e: ArrayLike) -> Any:
     """JAX: rotation matrices (..., 3, 3) of intrinsic z-y-x angles (..., 3), the inverse of
     :func:`euler_zyx`."""
     a, b, c = e[..., 0], e[..., 1], e[..., 2]
@@ -118,7 +121,7 @@ def rot_zyx(e: Any) -> Any:
     )
 
 
-def quat_to_matrix(q: Any) -> Any:
+def quat_to_matrix(q: ArrayLike) -> Any:
     """JAX: rotation matrices (..., 3, 3) of unit quaternions (..., 4), MuJoCo's (w, x, y, z)."""
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     return jnp.stack(
@@ -131,7 +134,7 @@ def quat_to_matrix(q: Any) -> Any:
     )
 
 
-def rotation_angle(Ra: Any, Rb: Any) -> Any:
+def rotation_angle(Ra: ArrayLike, Rb: ArrayLike) -> Any:
     """JAX: angle (radians) of the rotation between two (3, 3) rotations."""
     c = (jnp.trace(Ra.T @ Rb) - 1.0) / 2.0
     return jnp.arccos(jnp.clip(c, -1.0, 1.0))
@@ -171,7 +174,7 @@ def pad_rows(x: np.ndarray, n: int) -> np.ndarray:
     return np.concatenate([x, np.repeat(x[-1:], n - m, axis=0)], axis=0)
 
 
-def mesh_arrays(mesh: Any, what: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
+def mesh_arrays(mesh: MeshLike, what: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
     """The one accepted mesh input, as checked arrays.
 
     Args:
@@ -216,7 +219,7 @@ def mesh_arrays(mesh: Any, what: str = "mesh") -> tuple[np.ndarray, np.ndarray]:
     return v, f
 
 
-def as_trimesh(mesh: Any, what: str = "mesh"):
+def as_trimesh(mesh: MeshLike, what: str = "mesh"):
     """The one accepted mesh input as a ``trimesh.Trimesh`` (returned as is when it is one)."""
     import trimesh
 

@@ -8,6 +8,7 @@ from typing import Any, Literal
 import numpy as np
 
 from symjax._pytree import pytree_dataclass
+from symjax.array_types import ArrayLike
 from symjax.camera import Camera
 from symjax.errors import CameraError, EmptyInputError, InvalidInputError, ShapeError
 from symjax.geometry import bucket
@@ -21,7 +22,7 @@ MIN_POINTS = 10
 MaskFill = Literal["none", "close", "hull"]
 
 
-def clean_points(points: Any, what: str = "point cloud") -> np.ndarray:
+def clean_points(points: ArrayLike, what: str = "point cloud") -> np.ndarray:
     """Validates a cloud and drops non-finite rows.
 
     Args:
@@ -127,11 +128,11 @@ class Observation:
     @classmethod
     def create(
         cls,
-        points: Any,
+        points: ArrayLike,
         camera: Camera,
         table: TablePlane,
-        mask: Any,
-        depth: Any,
+        mask: ArrayLike,
+        depth: ArrayLike,
         valid: Any = None,
     ) -> Observation:
         """Builds a validated observation from given mask and depth images.
@@ -178,7 +179,7 @@ class Observation:
     @classmethod
     def from_points(
         cls,
-        points: Any,
+        points: ArrayLike,
         camera: Camera,
         table: TablePlane,
         fill: MaskFill = "close",
@@ -235,7 +236,7 @@ class Observation:
             depth=self.depth,
         )
 
-    def transformed(self, T_new_world: Any) -> Observation:
+    def transformed(self, T_new_world: ArrayLike) -> Observation:
         """The same observation after a rigid motion (4, 4) of the world frame.
 
         Images are unchanged.

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from symjax._pytree import pytree_dataclass
+from symjax.array_types import ArrayLike
 from symjax.errors import InvalidInputError, ShapeError
 
 __all__ = ["TablePlane"]
@@ -28,7 +29,7 @@ class TablePlane:
     offset: Any
 
     @classmethod
-    def create(cls, normal: Any, offset: float) -> TablePlane:
+    def create(cls, normal: ArrayLike, offset: float) -> TablePlane:
         """Builds a validated plane; ``normal`` is normalised."""
         n = np.asarray(normal, dtype=np.float64)
         if n.shape != (3,):
@@ -44,7 +45,7 @@ class TablePlane:
         return cls.create((0.0, 0.0, 1.0), -float(height))
 
     @classmethod
-    def from_point_normal(cls, point: Any, normal: Any) -> TablePlane:
+    def from_point_normal(cls, point: Any, normal: ArrayLike) -> TablePlane:
         """The plane through ``point`` with ``normal``."""
         n = np.asarray(normal, dtype=np.float64)
         n = n / np.linalg.norm(n)
@@ -54,7 +55,7 @@ class TablePlane:
         """Signed height (..., ) of points (..., 3) above the plane, metres."""
         return points @ self.normal + self.offset
 
-    def transformed(self, T_new_world: Any) -> TablePlane:
+    def transformed(self, T_new_world: ArrayLike) -> TablePlane:
         """The same plane after a rigid motion ``T_new_world`` (4, 4) of the world frame."""
         T = np.asarray(T_new_world, dtype=np.float64)
         n = T[:3, :3] @ np.asarray(self.normal)

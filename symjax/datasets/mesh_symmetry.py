@@ -13,6 +13,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from symjax.array_types import ArrayLike, MeshLike
 from symjax.datasets.preprocess import area_centroid
 from symjax.errors import (
     DegenerateGeometryError,
@@ -106,7 +107,7 @@ class SymmetryInfo:
 
 
 def mirror_distances(
-    mesh: Any, normal: Any, offset: float, n_samples: int = 8000, seed: int = 0
+    mesh: MeshLike, normal: ArrayLike, offset: float, n_samples: int = 8000, seed: int = 0
 ) -> np.ndarray:
     """Distances of the mirrored mesh surface to the original surface.
 
@@ -136,15 +137,15 @@ def mirror_distances(
 
 
 def mirror_deviation(
-    mesh: Any, normal: Any, offset: float, n_samples: int = 8000, seed: int = 0
+    mesh: MeshLike, normal: ArrayLike, offset: float, n_samples: int = 8000, seed: int = 0
 ) -> float:
     """Mean of :func:`mirror_distances`, metres: the symmetry score of a plane."""
     return float(mirror_distances(mesh, normal, offset, n_samples, seed).mean())
 
 
 def is_symmetry_plane(
-    mesh: Any,
-    normal: Any,
+    mesh: MeshLike,
+    normal: ArrayLike,
     offset: float,
     config: MeshSymmetryConfig = MeshSymmetryConfig(),
     seed: int = 0,
@@ -162,7 +163,9 @@ def is_symmetry_plane(
     return bool(mean < config.threshold and tail < config.tail_threshold), mean, tail
 
 
-def detect_symmetry(mesh: Any, config: MeshSymmetryConfig = MeshSymmetryConfig()) -> SymmetryInfo:
+def detect_symmetry(
+    mesh: MeshLike, config: MeshSymmetryConfig = MeshSymmetryConfig()
+) -> SymmetryInfo:
     """Finds and verifies the vertical reflection symmetry planes of a canonical mesh.
 
     Candidate planes pass through the table-projected area centroid (the centroid of a symmetric

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from symjax.array_types import MeshLike
 from symjax.errors import (
     DegenerateGeometryError,
 )
@@ -42,12 +43,12 @@ class PreprocessConfig:
     merge_tol: float = 1e-6
 
 
-def area_centroid(mesh: Any) -> np.ndarray:
+def area_centroid(mesh: MeshLike) -> np.ndarray:
     a = np.asarray(mesh.area_faces, np.float64)
     return (np.asarray(mesh.triangles_center) * a[:, None]).sum(0) / a.sum()
 
 
-def table_principal_axis(mesh: Any) -> np.ndarray:
+def table_principal_axis(mesh: MeshLike) -> np.ndarray:
     """Principal axis (longest dimension) of the mesh's table-projected convex hull.
 
     The axis of largest second moment of area of the hull polygon in the xy plane; its sign is
@@ -88,7 +89,7 @@ def table_principal_axis(mesh: Any) -> np.ndarray:
 
 
 def preprocess_mesh(
-    mesh: Any, lying: bool = False, config: PreprocessConfig = PreprocessConfig()
+    mesh: MeshLike, lying: bool = False, config: PreprocessConfig = PreprocessConfig()
 ) -> Any:
     """Cleans a raw scan and moves it into the canonical object frame (module docstring).
 

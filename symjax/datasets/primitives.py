@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.camera import Camera
 from symjax.datasets.raycast import Primitive, render_depth, scene_model
 from symjax.errors import unknown_name
@@ -70,7 +71,7 @@ def primitive_view(
     azimuth: float = 0.0,
     noise: float = 0.0,
     seed: int = 0,
-    K: Any = K_DEFAULT,
+    K: ArrayLike = K_DEFAULT,
     width: int = 640,
     height: int = 480,
 ) -> tuple[Observation, list[np.ndarray]]:

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from symjax.array_types import MeshLike
 from symjax.camera import Camera
 from symjax.datasets.catalogue import OBJECTS_VERSION
 from symjax.datasets.objects import ObjectModel, load_object
@@ -150,7 +151,7 @@ def render_view(
 
 
 def render_exact(
-    mesh: Any, camera: Camera, table_half_size: float = 2.0
+    mesh: MeshLike, camera: Camera, table_half_size: float = 2.0
 ) -> tuple[np.ndarray, np.ndarray]:
     """Exact depth of a mesh on the table z = 0 (the scene of :func:`raycast.scene_model`).
 
@@ -207,7 +208,7 @@ def render_exact(
     return depth.astype(np.float32), obj
 
 
-def trimesh_bounds_corners(mesh: Any) -> np.ndarray:
+def trimesh_bounds_corners(mesh: MeshLike) -> np.ndarray:
     """The 8 corners (8, 3) of a mesh's axis-aligned bounding box."""
     b = np.asarray(mesh.bounds, np.float64)
     return np.array([[b[i, 0], b[j, 1], b[k, 2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])

@@ -28,10 +28,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.camera import Camera
 from symjax.errors import ConfigError
 from symjax.geometry import pixel_rays
@@ -95,7 +95,7 @@ class StereoHead:
         return np.array([[self.fx, 0.0, cx], [0.0, self.fy, cy], [0.0, 0.0, 1.0]])
 
     def place(
-        self, rng: np.random.Generator, target: Any, extents: Any, azimuth: float = 0.0
+        self, rng: np.random.Generator, target: ArrayLike, extents: ArrayLike, azimuth: float = 0.0
     ) -> Camera:
         """Draws the camera for one view.
 
@@ -175,7 +175,7 @@ class StereoNoise:
             return 0.0
         return self.disparity_clip * self.disparity_sigma + self.subpixel / 2
 
-    def depth_bound(self, z: Any, focal: float, baseline: float) -> np.ndarray:
+    def depth_bound(self, z: ArrayLike, focal: float, baseline: float) -> np.ndarray:
         """Largest depth error of a non-flying pixel at true depth ``z`` (metres).
 
         Args:
@@ -207,9 +207,9 @@ def outline_bands(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def simulate_stereo(
-    depth: Any,
-    object_mask: Any,
-    normals: Any,
+    depth: ArrayLike,
+    object_mask: ArrayLike,
+    normals: ArrayLike,
     camera: Camera,
     noise: StereoNoise,
     baseline: float,

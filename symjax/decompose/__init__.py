@@ -2,7 +2,7 @@
 
 from symjax.decompose.config import DecomposeConfig
 from symjax.decompose.hulls import Decomposition, cap_hull, decompose, default_cache_dir, mesh_key
-from symjax.decompose.object_spec import mass_properties, object_spec, object_xml
+from symjax.decompose.mjcf_object import mass_properties, object_spec, object_xml
 
 __all__ = [
     "DecomposeConfig",

@@ -12,13 +12,13 @@ import io
 import os
 import time
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from symjax import resources
 from symjax._atomic import atomic_write_bytes
+from symjax.array_types import ArrayLike, MeshLike
 from symjax.decompose.config import DecomposeConfig
 from symjax.errors import DegenerateGeometryError, FileFormatError
 from symjax.geometry import mesh_arrays
@@ -55,7 +55,7 @@ def default_cache_dir() -> Path:
     return resources.cache_dir("coacd")
 
 
-def mesh_key(mesh: Any, config: DecomposeConfig | None = None) -> str:
+def mesh_key(mesh: MeshLike, config: DecomposeConfig | None = None) -> str:
     """SHA-256 of the mesh (float64 vertices, int64 faces) and the settings."""
     config = config if config is not None else DecomposeConfig()
     v, f = mesh_arrays(mesh)
@@ -67,7 +67,7 @@ def mesh_key(mesh: Any, config: DecomposeConfig | None = None) -> str:
     return h.hexdigest()
 
 
-def cap_hull(points: Any, max_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+def cap_hull(points: ArrayLike, max_vertices: int) -> tuple[np.ndarray, np.ndarray]:
     """Convex hull of ``points`` with at most ``max_vertices`` vertices.
 
     Hull vertices beyond the cap are thinned by farthest-point sampling (which keeps the
@@ -141,7 +141,7 @@ def _save(path: Path, hulls) -> None:
 
 
 def decompose(
-    mesh: Any,
+    mesh: MeshLike,
     config: DecomposeConfig | None = None,
     cache_dir: str | os.PathLike | None = None,
     use_cache: bool = True,

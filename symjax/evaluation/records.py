@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from symjax.array_types import ArrayLike
 from symjax.errors import FileFormatError
 from symjax.evaluation.config import POISSON_DEPTHS
 
@@ -194,7 +195,7 @@ class ViewRecord:
         return jsonable(d)
 
     @classmethod
-    def from_json(cls, d: Any) -> ViewRecord:
+    def from_json(cls, d: ArrayLike) -> ViewRecord:
         """Parses a record written by :meth:`to_json`.
 
         Raises:

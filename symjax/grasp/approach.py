@@ -4,12 +4,11 @@ the roll about the approach.
 
 from __future__ import annotations
 
-from typing import Any
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.geometry import bucket, pad_rows
 
 __all__ = ["approach_frame", "approach_frames", "roll_for_axis", "rolls_for_axes"]
@@ -23,7 +22,7 @@ def _reference_axes(a):
     return e1, jnp.cross(a, e1)
 
 
-def approach_frame(approach, roll):
+def approach_frame(approach: jax.Array, roll: jax.Array) -> jax.Array:
     """TCP orientation of one candidate, shape (3, 3).
 
     The z column is ``approach``; the x column (closing axis) is ``cos(roll) e1 + sin(roll) e2``
@@ -40,7 +39,7 @@ def approach_frame(approach, roll):
     return jnp.stack([x, jnp.cross(a, x), a], axis=-1)
 
 
-def roll_for_axis(approach, axis):
+def roll_for_axis(approach: jax.Array, axis: jax.Array) -> jax.Array:
     """The roll that points the closing axis along ``axis`` (projected normal to the approach)."""
     a = approach / jnp.linalg.norm(approach)
     e1, e2 = _reference_axes(a)
@@ -51,7 +50,7 @@ _frames_jit = jax.jit(jax.vmap(approach_frame))
 _rolls_jit = jax.jit(jax.vmap(roll_for_axis))
 
 
-def approach_frames(approach: Any, roll: Any) -> np.ndarray:
+def approach_frames(approach: ArrayLike, roll: ArrayLike) -> np.ndarray:
     """TCP orientations of N candidates, (N, 3, 3) float32 (see :func:`approach_frame`).
 
     Args:
@@ -64,7 +63,7 @@ def approach_frames(approach: Any, roll: Any) -> np.ndarray:
     return np.asarray(_frames_jit(pad_rows(a, n), r))[: len(a)]
 
 
-def rolls_for_axes(approach: Any, axis: Any) -> np.ndarray:
+def rolls_for_axes(approach: ArrayLike, axis: ArrayLike) -> np.ndarray:
     """Rolls (N,) that point the closing axes along ``axis`` (N, 3) or one (3,) for all."""
     a = np.asarray(approach, np.float32).reshape(-1, 3)
     ax = np.broadcast_to(np.asarray(axis, np.float32), a.shape)

@@ -30,6 +30,7 @@ from typing import Any
 import jax
 import numpy as np
 
+from symjax.array_types import ArrayLike, MeshLike
 from symjax.errors import (
     DegenerateGeometryError,
     InvalidInputError,
@@ -80,7 +81,7 @@ def _semicircle(normal: np.ndarray, n: int, fallback: np.ndarray) -> np.ndarray:
     return np.cos(th)[:, None] * b1 + np.sin(th)[:, None] * b2
 
 
-def kth_grasp_points(mesh: Any) -> np.ndarray:
+def kth_grasp_points(mesh: MeshLike) -> np.ndarray:
     """Two opposing grasp points: a geometric stand-in for the learned detector of [18].
 
     The points are where the line through the centroid along the object's narrowest horizontal
@@ -193,13 +194,13 @@ def _probe_world(approach, point, roll, distance, probes):
 
 
 def generate(
-    mesh: Any,
+    mesh: MeshLike,
     method: str,
     *,
     config: CandidateConfig | None = None,
     table: Any = None,
     hand: Any = None,
-    grasp_points: Any = None,
+    grasp_points: ArrayLike = None,
     seed: int = 0,
 ) -> CandidateSet:
     """Grasp candidates for one object mesh (``GetGraspCandidates``).

@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from symjax.array_types import ArrayLike, MeshLike
 from symjax.errors import (
     ShapeError,
 )
@@ -43,7 +44,9 @@ def _ray_triangles(origin, direction, triangles, t_min: float):
     return t, ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
 
 
-def ray_mesh(origin, direction, triangles):
+def ray_mesh(
+    origin: jax.Array, direction: jax.Array, triangles: jax.Array
+) -> tuple[jax.Array, jax.Array]:
     """First hit of one ray with a triangle soup (Moller-Trumbore).
 
     Args:
@@ -91,7 +94,9 @@ def _triangles(mesh: Any) -> np.ndarray:
     return np.concatenate([tri, np.repeat(filler, n - len(tri), axis=0)])
 
 
-def cast_rays(origins: Any, directions: Any, mesh: Any) -> tuple[np.ndarray, np.ndarray]:
+def cast_rays(
+    origins: ArrayLike, directions: ArrayLike, mesh: MeshLike
+) -> tuple[np.ndarray, np.ndarray]:
     """First hits of many rays with a mesh.
 
     Args:
@@ -113,7 +118,7 @@ def cast_rays(origins: Any, directions: Any, mesh: Any) -> tuple[np.ndarray, np.
     return np.asarray(t)[: len(o)], np.asarray(idx)[: len(o)]
 
 
-def inside_mesh(points: Any, mesh: Any) -> np.ndarray:
+def inside_mesh(points: ArrayLike, mesh: MeshLike) -> np.ndarray:
     """Whether points lie inside a closed triangle mesh (ray parity).
 
     Args:

@@ -9,6 +9,7 @@ from typing import Any
 import jax
 import numpy as np
 
+from symjax.array_types import ArrayLike, MeshLike
 from symjax.errors import EmptyInputError, unknown_name
 from symjax.execution import ExecutionConfig
 from symjax.geometry import mesh_arrays
@@ -85,7 +86,7 @@ def rank(outcomes: GraspOutcomes, by: str = "success") -> np.ndarray:
 
 
 def plan(
-    mesh: Any,
+    mesh: MeshLike,
     hand: Any,
     method: str = "uji",
     *,
@@ -95,7 +96,7 @@ def plan(
     simulation: SimulationConfig | None = None,
     execution: ExecutionConfig | None = None,
     backend: str | None = None,
-    grasp_points: Any = None,
+    grasp_points: ArrayLike = None,
     seed: int = 0,
 ) -> GraspPlan:
     """Generates grasp candidates for an object, rolls them all out, and ranks them.

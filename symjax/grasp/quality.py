@@ -28,6 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.errors import InvalidInputError, ShapeError
 
 __all__ = [
@@ -45,7 +46,7 @@ _N_POLISH = 4
 _CLOSURE_TOL = 1e-6
 
 
-def tangent_basis(n):
+def tangent_basis(n: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Two unit tangents orthogonal to unit ``n`` (3,), each shape (3,)."""
     ref = jnp.where(jnp.abs(n[0]) < 0.9, jnp.array([1.0, 0.0, 0.0]), jnp.array([0.0, 1.0, 0.0]))
     t1 = ref - jnp.dot(ref, n) * n
@@ -53,7 +54,16 @@ def tangent_basis(n):
     return t1, jnp.cross(n, t1)
 
 
-def primitive_wrenches(pos, normal, center, *, friction, n_edges=8, rho=1.0, torsion=0.0):
+def primitive_wrenches(
+    pos: jax.Array,
+    normal: jax.Array,
+    center: jax.Array,
+    *,
+    friction: float,
+    n_edges: int = 8,
+    rho: float = 1.0,
+    torsion: float = 0.0,
+) -> jax.Array:
     """Primitive wrenches of a contact set, shape (K * W, 6).
 
     Args:
@@ -98,7 +108,7 @@ def _fixed_directions(n: int) -> np.ndarray:
 _STARTS = _fixed_directions(_N_START)
 
 
-def epsilon_l1(wrenches, valid=None):
+def epsilon_l1(wrenches: jax.Array, valid: jax.Array | None = None) -> jax.Array:
     """Signed Ferrari-Canny distance of a wrench set (see the module docstring), scalar.
 
     Args:
@@ -159,14 +169,22 @@ def epsilon_l1(wrenches, valid=None):
     return jnp.where(any_valid, h * scale, -jnp.inf)
 
 
-def force_closure(epsilon, tol=_CLOSURE_TOL):
+def force_closure(epsilon: jax.Array, tol: float = _CLOSURE_TOL) -> jax.Array:
     """Force closure from the signed epsilon: the origin strictly inside the hull."""
     return epsilon > tol
 
 
 def contact_quality(
-    pos, normal, valid, center, *, friction=0.5, n_edges=8, rho=1.0, torsion=0.0
-) -> tuple[Any, Any]:
+    pos: jax.Array,
+    normal: jax.Array,
+    valid: jax.Array,
+    center: jax.Array,
+    *,
+    friction: float = 0.5,
+    n_edges: int = 8,
+    rho: float = 1.0,
+    torsion: float = 0.0,
+) -> tuple[jax.Array, jax.Array]:
     """Force closure and epsilon of one contact set (``jax.vmap`` it over candidates).
 
     Args:
@@ -191,7 +209,7 @@ def contact_quality(
     return closed, jnp.where(closed, eps, 0.0)
 
 
-def check_contacts(pos: Any, normal: Any, center: Any) -> None:
+def check_contacts(pos: ArrayLike, normal: ArrayLike, center: Any) -> None:
     """Raises a :class:`ShapeError` / :class:`InvalidInputError` for malformed contact arrays."""
     p, n, c = np.asarray(pos), np.asarray(normal), np.asarray(center)
     if p.ndim != 2 or p.shape[-1] != 3 or n.shape != p.shape:

@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 from symjax._pytree import pytree_dataclass, static_field
+from symjax.array_types import ArrayLike
 from symjax.errors import FileFormatError, InvalidInputError, MissingFileError, unknown_name
 from symjax.resources import asset_dir
 
@@ -151,7 +152,7 @@ class Hand:
             raise unknown_name("pre-shape", name, self.preshape_names)
         return self.preshape_names.index(name)
 
-    def closed_ctrl(self, preshape):
+    def closed_ctrl(self, preshape: ArrayLike) -> ArrayLike:
         """Actuator targets that close the hand from pre-shape ``preshape`` (index), shape (nu,).
 
         Works on numpy and inside ``jax.jit`` (``preshape`` may be traced).

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from symjax._atomic import atomic_write_bytes, atomic_write_json
+from symjax.array_types import ArrayLike
 from symjax.camera import Camera
 from symjax.errors import InvalidInputError, MissingFileError, SymjaxError
 from symjax.io._common import existing_file, format_error
@@ -277,7 +278,7 @@ def load_depth_frame(
     return DepthFrame(depth=depth, camera=camera, rgb=rgb)
 
 
-def write_depth_png(path: str | os.PathLike, depth: Any, depth_scale: float = 0.001) -> Path:
+def write_depth_png(path: str | os.PathLike, depth: ArrayLike, depth_scale: float = 0.001) -> Path:
     """Writes a depth image (H, W) in metres as a 16-bit PNG of ``depth / depth_scale`` units.
 
     Raises:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from symjax._atomic import atomic_write_bytes
+from symjax.array_types import ArrayLike, MeshLike
 from symjax.errors import InvalidInputError, ShapeError
 from symjax.io._common import existing_file, format_error
 
@@ -25,7 +25,7 @@ def _suffix(path: Path) -> str:
     return s
 
 
-def write_mesh(path: str | os.PathLike, mesh: Any, faces: Any = None) -> Path:
+def write_mesh(path: str | os.PathLike, mesh: MeshLike, faces: ArrayLike = None) -> Path:
     """Writes a triangle mesh; the format (PLY binary, OBJ, STL binary) follows the suffix.
 
     Args:

@@ -11,11 +11,11 @@ from __future__ import annotations
 import io as _io
 import os
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from symjax._atomic import atomic_write_bytes
+from symjax.array_types import ArrayLike
 from symjax.camera import Camera
 from symjax.errors import InvalidInputError, ShapeError, SymjaxError
 from symjax.io._common import existing_file, format_error
@@ -85,11 +85,11 @@ def read_point_cloud(path: str | os.PathLike, scale: float = 1.0) -> PointCloud:
 
 def write_point_cloud(
     path: str | os.PathLike,
-    points: Any,
-    colors: Any = None,
-    normals: Any = None,
+    points: ArrayLike,
+    colors: ArrayLike = None,
+    normals: ArrayLike = None,
     binary: bool = True,
-    viewpoint: Any = None,
+    viewpoint: ArrayLike = None,
 ) -> Path:
     """Writes a point cloud atomically; the format follows the suffix.
 
@@ -134,14 +134,14 @@ def write_point_cloud(
 
 
 def cloud_observation(
-    points: Any,
+    points: ArrayLike,
     table: TablePlane,
     camera: Camera | None = None,
-    viewpoint: Any = None,
-    K: Any = None,
+    viewpoint: ArrayLike = None,
+    K: ArrayLike = None,
     width: int = 640,
     height: int = 480,
-    up: Any = (0.0, 0.0, 1.0),
+    up: ArrayLike = (0.0, 0.0, 1.0),
     fill: MaskFill = "close",
 ) -> Observation:
     """An :class:`Observation` of one object's cloud seen by a camera or from a viewpoint only.

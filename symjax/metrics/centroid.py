@@ -2,21 +2,22 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
+from symjax.array_types import MeshLike
 from symjax.metrics.deviation import checked_mesh, sample_surface
 
 __all__ = ["centroid_error", "surface_centroid"]
 
 
-def surface_centroid(mesh: Any, n_samples: int = 20000, seed: int = 0) -> np.ndarray:
+def surface_centroid(mesh: MeshLike, n_samples: int = 20000, seed: int = 0) -> np.ndarray:
     """Mean of uniform surface samples of a mesh (independent of its vertex layout), (3,) m."""
     return sample_surface(mesh, n_samples, seed).mean(axis=0)
 
 
-def centroid_error(reference: Any, mesh: Any, n_samples: int = 20000, seed: int = 0) -> float:
+def centroid_error(
+    reference: MeshLike, mesh: MeshLike, n_samples: int = 20000, seed: int = 0
+) -> float:
     """Distance between surface-sample centroids over the reference's oriented-box diagonal.
 
     Args:

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from symjax.array_types import ArrayLike, MeshLike
 from symjax.errors import EmptyInputError, InvalidInputError, ShapeError
 from symjax.geometry import as_trimesh
 
@@ -40,7 +41,7 @@ class Deviation:
     n: int
 
 
-def checked_mesh(mesh: Any, what: str = "mesh"):
+def checked_mesh(mesh: MeshLike, what: str = "mesh"):
     """The mesh input (:func:`symjax.geometry.as_trimesh`), non-empty with finite vertices."""
     mesh = as_trimesh(mesh, what)
     if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
@@ -52,7 +53,7 @@ def checked_mesh(mesh: Any, what: str = "mesh"):
     return mesh
 
 
-def sample_surface(mesh: Any, n: int, seed: int = 0) -> np.ndarray:
+def sample_surface(mesh: MeshLike, n: int, seed: int = 0) -> np.ndarray:
     """Uniform samples of a mesh surface: faces by area, points uniform in each face.
 
     Args:
@@ -124,8 +125,8 @@ def _closest_on_triangles(tri: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def surface_distance(
-    points: Any,
-    mesh: Any,
+    points: ArrayLike,
+    mesh: MeshLike,
     *,
     candidates: int | None = None,
     return_faces: bool = False,
@@ -209,7 +210,9 @@ def _face_tree(mesh: Any, centroids: np.ndarray):
     return tree
 
 
-def mesh_deviation(reference: Any, mesh: Any, n_samples: int = 20000, seed: int = 0) -> Deviation:
+def mesh_deviation(
+    reference: MeshLike, mesh: MeshLike, n_samples: int = 20000, seed: int = 0
+) -> Deviation:
     """Geometric deviation of ``mesh`` from ``reference`` (MeshDev, paper Section V-A.3).
 
     Args:

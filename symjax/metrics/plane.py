@@ -8,13 +8,14 @@ from typing import Any
 
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.errors import InvalidInputError, ShapeError
 
 __all__ = ["plane_error"]
 
 
 def plane_error(
-    normal: Any,
+    normal: ArrayLike,
     offset: float,
     *,
     planes: Sequence[tuple[Any, float]] = (),

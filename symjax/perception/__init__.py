@@ -3,7 +3,7 @@
 from symjax.perception.clusters import cloud_clusters, image_clusters, statistical_outliers
 from symjax.perception.config import SegmentationConfig
 from symjax.perception.ransac import fit_table_plane
-from symjax.perception.segment import ObjectInfo, TableScene, segment
+from symjax.perception.segmentation import ObjectInfo, TableScene, segment
 
 __all__ = [
     "ObjectInfo",

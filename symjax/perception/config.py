@@ -12,7 +12,7 @@ __all__ = ["SegmentationConfig"]
 
 @dataclasses.dataclass(frozen=True)
 class SegmentationConfig:
-    """Parameters of :func:`symjax.perception.segment`.
+    """Parameters of :func:`symjax.perception.segmentation`.
 
     Attributes:
         ransac_hypotheses: Plane hypotheses (point triples) scored at once in one jitted vmap.

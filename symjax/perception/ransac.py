@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.errors import DegenerateGeometryError, EmptyInputError, ShapeError
 from symjax.perception.config import SegmentationConfig
 from symjax.table import TablePlane
@@ -41,7 +40,9 @@ def _plane_cost(sample, triple, threshold, up, cos_min):
 
 
 @jax.jit
-def plane_costs(sample, triples, threshold, up, cos_min):
+def plane_costs(
+    sample: jax.Array, triples: jax.Array, threshold: float, up: jax.Array, cos_min: float
+) -> jax.Array:
     """Scores all hypotheses at once.
 
     Args:
@@ -76,7 +77,7 @@ def ransac_plane(
     sample: np.ndarray,
     refine: np.ndarray,
     config: SegmentationConfig,
-    viewpoint: Any = None,
+    viewpoint: ArrayLike = None,
     rng: np.random.Generator | None = None,
 ) -> TablePlane:
     """RANSAC on ``sample``, least-squares refinement on ``refine``.
@@ -131,7 +132,7 @@ def ransac_plane(
 
 
 def fit_table_plane(
-    points: Any, config: SegmentationConfig | None = None, viewpoint: Any = None
+    points: ArrayLike, config: SegmentationConfig | None = None, viewpoint: ArrayLike = None
 ) -> tuple[TablePlane, np.ndarray]:
     """Finds the dominant plane of a cloud.
 

@@ -11,11 +11,11 @@ published tables in :data:`DH` give the flange pose of the ``flange`` site.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import mujoco
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.errors import FileFormatError, MissingFileError, ShapeError, unknown_name
 from symjax.resources import asset_dir
 
@@ -168,7 +168,7 @@ def load(name: str) -> Robot:
 
 
 def flange_pose(
-    robot: Robot, q: Any, model: mujoco.MjModel | None = None
+    robot: Robot, q: ArrayLike, model: mujoco.MjModel | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Forward kinematics of the arm: the flange pose relative to the arm base.
 

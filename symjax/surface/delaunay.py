@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.errors import DegenerateGeometryError, InvalidInputError
 from symjax.surface.config import DelaunayConfig
 from symjax.surface.normals import _as_points, check_not_degenerate
@@ -71,7 +72,7 @@ def _without_pinches(faces: np.ndarray, n_vertices: int, max_rounds: int = 20) -
     raise DegenerateGeometryError("could not build a manifold sheet from the triangulation")
 
 
-def delaunay_mesh(points: Any, camera: Any, config: DelaunayConfig | None = None):
+def delaunay_mesh(points: ArrayLike, camera: Any, config: DelaunayConfig | None = None):
     """Watertight baseline mesh of an observed (not mirrored) cloud, paper Section V-A.2.
 
     Args:

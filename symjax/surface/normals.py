@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.errors import DegenerateGeometryError, EmptyInputError, InvalidInputError, ShapeError
 from symjax.surface.config import NormalsConfig
 
@@ -86,7 +87,7 @@ def check_not_degenerate(points: np.ndarray, min_points: int, allow_planar: bool
         )
 
 
-def outlier_mask(points: Any, config: NormalsConfig | None = None) -> np.ndarray:
+def outlier_mask(points: ArrayLike, config: NormalsConfig | None = None) -> np.ndarray:
     """Statistical outlier filter: True for points to keep.
 
     A point is an outlier when the mean distance to its ``config.outlier_k`` nearest neighbours
@@ -133,7 +134,7 @@ def _plane_normals(p: np.ndarray, idx: np.ndarray, viewpoints) -> np.ndarray:
 
 
 def estimate_normals(
-    points: Any, viewpoints: Any = None, config: NormalsConfig | None = None
+    points: ArrayLike, viewpoints: Any = None, config: NormalsConfig | None = None
 ) -> np.ndarray:
     """Unit normals by a plane fit to each point's k nearest neighbours.
 

@@ -13,6 +13,7 @@ from typing import Any, Literal
 
 import jax
 
+from symjax.array_types import ArrayLike
 from symjax.errors import InvalidInputError, SymjaxError, config_or_default
 from symjax.execution import ExecutionConfig
 from symjax.geometry import bucket
@@ -25,7 +26,10 @@ __all__ = ["poisson_reconstruct", "poisson_reconstruct_batch"]
 
 
 def poisson_reconstruct(
-    points: Any, normals: Any, weights: Any = None, config: PoissonConfig | None = None
+    points: ArrayLike,
+    normals: ArrayLike,
+    weights: ArrayLike = None,
+    config: PoissonConfig | None = None,
 ):
     """Watertight mesh of one oriented point cloud.
 

@@ -7,6 +7,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from symjax.array_types import ArrayLike
 from symjax.decompose.hulls import Decomposition
 from symjax.errors import DegenerateGeometryError, EmptyInputError, InvalidInputError, ShapeError
 
@@ -14,7 +15,7 @@ __all__ = ["mass_properties", "object_spec", "object_xml"]
 
 
 def mass_properties(
-    vertices: Any, faces: Any, density: float
+    vertices: ArrayLike, faces: ArrayLike, density: float
 ) -> tuple[float, np.ndarray, np.ndarray]:
     """Mass, centre of mass and inertia of a closed triangle mesh of uniform density.
 
@@ -56,8 +57,8 @@ def object_spec(
     mesh: tuple[Any, Any] | None = None,
     mass: float | None = None,
     density: float = 400.0,
-    pos: Any = (0.0, 0.0, 0.0),
-    quat: Any = (1.0, 0.0, 0.0, 0.0),
+    pos: ArrayLike = (0.0, 0.0, 0.0),
+    quat: ArrayLike = (1.0, 0.0, 0.0, 0.0),
     friction: tuple[float, float, float] = (1.0, 0.005, 0.0001),
     spec: mujoco.MjSpec | None = None,
 ) -> mujoco.MjSpec:
