@@ -24,7 +24,7 @@ import trimesh
 
 from symjax import grasp, hands
 from symjax._atomic import atomic_write_json
-from symjax.cli.common import parse  # noqa: E402
+from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.decompose import DecomposeConfig, decompose
 from symjax.table import TablePlane
 
@@ -44,11 +44,9 @@ def objects() -> dict[str, trimesh.Trimesh]:
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
+class Args(PresetArgs):
     """Options of this benchmark."""
 
-    config: str = "default"
-    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
     out: str = str(ROOT / "bench" / "results" / "candidates.json")
     """Where the JSON lines go."""
 

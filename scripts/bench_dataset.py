@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from symjax._atomic import atomic_write_json
-from symjax.cli.common import parse  # noqa: E402
+from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.datasets import (
     DATASET_IDS,
     BenchmarkConfig,
@@ -49,11 +49,9 @@ LIMIT_S = 120.0
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
+class Args(PresetArgs):
     """Options of this benchmark."""
 
-    config: str = "default"
-    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
     out: str = str(ROOT / "bench" / "results" / "dataset.json")
     """Where the JSON lines go."""
     workers: int | None = None

@@ -38,7 +38,7 @@ from symjax import grasp, hands
 from symjax._atomic import atomic_write_json
 
 # symjax.grasp.simulate is also the function's name; this is the module.
-from symjax.cli.common import parse  # noqa: E402
+from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.decompose import DecomposeConfig, decompose
 from symjax.execution import ExecutionConfig
 from symjax.grasp.config import CandidateConfig
@@ -94,11 +94,9 @@ def bench_mjx(scene, cands, hand, ex):
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
+class Args(PresetArgs):
     """Options of this benchmark."""
 
-    config: str = "default"
-    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
     sizes: tuple[int, ...] = (64, 512, 4096)
     """Candidate batch sizes of the C MuJoCo rows."""
     mjx_sizes: tuple[int, ...] | None = None

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from symjax.cli.common import parse
+from symjax.cli.common import PresetArgs, parse
 
 FLOOR_MS = 150.0
 
@@ -54,11 +54,9 @@ def _iou_ok(scene, result) -> tuple[int, float]:
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
+class Args(PresetArgs):
     """Options of this benchmark."""
 
-    config: str = "default"
-    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
     repeats: int = 20
     """Timed repeats per case."""
 

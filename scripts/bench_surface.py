@@ -39,7 +39,7 @@ import trimesh  # noqa: E402
 
 from symjax._atomic import atomic_write_json  # noqa: E402
 from symjax._timing import median_time  # noqa: E402
-from symjax.cli.common import parse  # noqa: E402
+from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.datasets.primitives import primitive_view  # noqa: E402
 from symjax.execution import ExecutionConfig  # noqa: E402
 from symjax.geometry import reflect  # noqa: E402
@@ -266,11 +266,9 @@ def bench_batch(rows, ops, depth, repeats) -> None:
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
+class Args(PresetArgs):
     """Options of this benchmark."""
 
-    config: str = "default"
-    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
     quick: bool = False
     """Fewer repeats and a batch of 16."""
     out: str = str(ROOT / "bench" / "results" / "surface.json")

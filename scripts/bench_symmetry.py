@@ -37,7 +37,7 @@ import numpy as np  # noqa: E402
 from symjax import configs  # noqa: E402
 from symjax._atomic import atomic_write_json  # noqa: E402
 from symjax._timing import median_time  # noqa: E402
-from symjax.cli.common import parse  # noqa: E402
+from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.datasets.primitives import K_DEFAULT, primitive_view, symmetry_truth  # noqa: E402
 from symjax.execution import ExecutionConfig  # noqa: E402
 from symjax.geometry import bucket  # noqa: E402
@@ -170,11 +170,9 @@ def case_batch(
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
+class Args(PresetArgs):
     """Options of this benchmark."""
 
-    config: str = "default"
-    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
     out: str = str(ROOT / "bench" / "results" / "symmetry.json")
     """Where the JSON lines go."""
     quick: bool = False

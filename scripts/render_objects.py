@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from symjax._atomic import atomic_write_bytes  # noqa: E402
-from symjax.cli.common import parse  # noqa: E402
+from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.datasets import OBJECT_NAMES, load_dataset_object  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -62,11 +62,9 @@ def draw(ax, obj) -> None:
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
+class Args(PresetArgs):
     """Options of this benchmark."""
 
-    config: str = "default"
-    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
     out: str = str(ROOT / "symjax" / "datasets" / "objects.png")
     """The picture."""
     cache: str | None = None

@@ -20,7 +20,7 @@ import numpy as np  # noqa: E402
 
 from symjax import hands, robots  # noqa: E402
 from symjax._atomic import atomic_write_bytes  # noqa: E402
-from symjax.cli.common import parse  # noqa: E402
+from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.resources import asset_dir  # noqa: E402
 
 
@@ -83,11 +83,9 @@ def render_robot(name: str, size: int) -> None:
 
 
 @dataclasses.dataclass(frozen=True)
-class Args:
+class Args(PresetArgs):
     """Options of this benchmark."""
 
-    config: str = "default"
-    """Preset name (ci, default, kth, paper, uji) or a TOML file; the options default to it."""
     size: int = 480
     """Picture size, pixels."""
 

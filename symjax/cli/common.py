@@ -10,14 +10,21 @@ from typing import TypeVar
 
 from symjax.errors import SymjaxError
 
-__all__ = ["CONFIG_HELP", "parse", "preset_argument", "run"]
+__all__ = ["PresetArgs", "parse", "preset_argument", "run"]
 
 T = TypeVar("T")
 
-CONFIG_HELP = (
-    "Preset name (ci, default, kth, paper, uji) or the path of a TOML file in the same layout;"
-    " the options below default to its values and override them."
-)
+
+@dataclasses.dataclass(frozen=True)
+class PresetArgs:
+    """The option every command has; a command's own options extend it.
+
+    Attributes:
+        config: Preset name (ci, default, kth, paper, uji) or the path of a TOML file in the
+            same layout; the options below default to its values and override them.
+    """
+
+    config: str = "default"
 
 
 def preset_argument(argv: Sequence[str], default: str = "default") -> str:
@@ -31,7 +38,7 @@ def preset_argument(argv: Sequence[str], default: str = "default") -> str:
 
 
 def parse(cls: type[T], argv: Sequence[str], prog: str, description: str | None = None) -> T:
-    """Parses ``argv`` into ``cls``, a dataclass with a ``config`` field.
+    """Parses ``argv`` into ``cls``, a :class:`PresetArgs` dataclass.
 
     Fields of ``cls`` named like a preset table (``symmetry``, ``execution``, ...) or
     ``evaluation`` default to the preset's values, so ``--help`` shows what the preset sets.
@@ -47,10 +54,16 @@ def parse(cls: type[T], argv: Sequence[str], prog: str, description: str | None 
     return tyro.cli(cls, args=list(argv), default=default, prog=prog, description=description)
 
 
-def run(prog: str, body: Callable[[], int]) -> int:
-    """Runs a command body: exit 2 with one line on a :class:`SymjaxError`, 130 on Ctrl-C."""
+def run(prog: str, body: Callable[[list[str]], int], argv: Sequence[str] | None = None) -> int:
+    """Runs a command body on ``argv`` (default: ``sys.argv[1:]``).
+
+    Returns:
+        The body's status; 2 with one line on stderr on a :class:`SymjaxError`, tyro's status
+        on ``--help`` or a bad flag, 130 on Ctrl-C.
+    """
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        return int(body() or 0)
+        return int(body(argv) or 0)
     except SymjaxError as e:
         print(f"{prog}: error: {e}", file=sys.stderr)
         return 2

@@ -11,11 +11,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 import time
 from pathlib import Path
 
-from symjax.cli.common import parse, run
+from symjax.cli.common import PresetArgs, parse, run
 from symjax.execution import ExecutionConfig
 from symjax.symmetry.config import SymmetryConfig
 
@@ -23,18 +22,15 @@ __all__ = ["DemoCommand", "main"]
 
 
 @dataclasses.dataclass(frozen=True)
-class DemoCommand:
+class DemoCommand(PresetArgs):
     """Completes 24 synthetic views by symmetry.
 
     Attributes:
-        config: Preset name (ci, default, kth, paper, uji) or the path of a TOML file in the
-            same layout; the options below default to its values and override them.
         out_dir: Output folder.
         symmetry: The symmetry search.
         execution: Chunk sizes (speed only).
     """
 
-    config: str = "default"
     out_dir: str = "out/demo"
     symmetry: SymmetryConfig = dataclasses.field(default_factory=SymmetryConfig)
     execution: ExecutionConfig = dataclasses.field(default_factory=ExecutionConfig)
@@ -137,5 +133,4 @@ def _body(argv: list[str]) -> int:
 
 def main(argv: list[str] | None = None, prog: str = "symjax demo") -> int:
     """Command line entry point; returns the exit status."""
-    argv = sys.argv[1:] if argv is None else list(argv)
-    return run(prog, lambda: _body(argv))
+    return run(prog, _body, argv)

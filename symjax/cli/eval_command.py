@@ -15,29 +15,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 import time
 from typing import Annotated
 
 import tyro
 
-from symjax.cli.common import parse, run
+from symjax.cli.common import PresetArgs, parse, run
 from symjax.evaluation.config import EvalConfig
 
 __all__ = ["EvalCommand", "main"]
 
 
 @dataclasses.dataclass(frozen=True)
-class EvalCommand:
+class EvalCommand(PresetArgs):
     """Runs the paper's evaluation.
 
     Attributes:
-        config: Preset name (ci, default, kth, paper, uji) or the path of a TOML file in the
-            same layout; the options below default to its values and override them.
         evaluation: The evaluation's settings.
     """
 
-    config: str = "default"
     evaluation: Annotated[EvalConfig, tyro.conf.arg(name="")] = dataclasses.field(
         default_factory=EvalConfig
     )
@@ -68,5 +64,4 @@ def _body(argv: list[str]) -> int:
 
 def main(argv: list[str] | None = None, prog: str = "symjax eval") -> int:
     """Command line entry point; returns the exit status (0 ok, 2 bad arguments or data)."""
-    argv = sys.argv[1:] if argv is None else list(argv)
-    return run(prog, lambda: _body(argv))
+    return run(prog, _body, argv)
