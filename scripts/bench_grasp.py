@@ -37,7 +37,6 @@ import trimesh
 from symjax import grasp, hands
 from symjax._atomic import atomic_write_json
 
-# symjax.grasp.simulate is also the function's name; this is the module.
 from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.decompose import DecomposeConfig, decompose
 from symjax.execution import ExecutionConfig

@@ -4,7 +4,6 @@ Symmetry-based shape completion (Bohg et al., "Mind the Gap", ICRA 2011), meshin
 grasp simulation, vectorised with JAX and MJX.
 """
 
-from symjax.camera import Camera
 from symjax.errors import (
     CameraError,
     ConfigError,
@@ -18,9 +17,19 @@ from symjax.errors import (
     SymjaxError,
     UnknownNameError,
 )
-from symjax.observation import Observation, stack_observations
-from symjax.symmetry import SymmetryConfig, SymmetryResult, complete
-from symjax.table import TablePlane
+
+# Names of the core types, imported on first use (PEP 562) like the subpackages below: a bare
+# `import symjax` loads no JAX, so the console can install its Ctrl-C handler before JAX starts.
+_LAZY = {
+    "Camera": "symjax.camera",
+    "Observation": "symjax.observation",
+    "SceneLimits": "symjax.observation",
+    "stack_observations": "symjax.observation",
+    "SymmetryConfig": "symjax.symmetry",
+    "SymmetryResult": "symjax.symmetry",
+    "complete": "symjax.symmetry",
+    "TablePlane": "symjax.table",
+}
 
 __version__ = "0.1.0"
 
@@ -47,10 +56,12 @@ _SUBPACKAGES = (
 
 
 def __getattr__(name: str):
-    if name in _SUBPACKAGES:
-        import importlib
+    import importlib
 
+    if name in _SUBPACKAGES:
         return importlib.import_module(f"symjax.{name}")
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'symjax' has no attribute {name!r}")
 
 
@@ -64,6 +75,7 @@ __all__ = [
     "InvalidInputError",
     "MissingFileError",
     "Observation",
+    "SceneLimits",
     "ShapeError",
     "SimulationError",
     "SymjaxError",

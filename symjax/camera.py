@@ -57,6 +57,12 @@ class Camera:
             raise CameraError("camera T_world_cam rotation must be orthonormal with det +1")
         if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0]):
             raise CameraError("camera T_world_cam last row must be [0, 0, 0, 1]")
+        for name, v in (("width", width), ("height", height)):
+            integral = isinstance(v, int | np.integer) or (
+                isinstance(v, float | np.floating) and float(v).is_integer()
+            )
+            if isinstance(v, bool) or not integral:
+                raise CameraError(f"camera {name} must be a whole number of pixels, got {v!r}")
         if int(width) <= 0 or int(height) <= 0:
             raise CameraError(f"image size must be positive, got {width}x{height}")
         return cls(K=K, T_world_cam=T, width=int(width), height=int(height))

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 
 from symjax.errors import ConfigError
+from symjax.validation import check_fields
 
 __all__ = ["ExecutionConfig"]
 
@@ -44,6 +45,7 @@ class ExecutionConfig:
     progress: bool = True
 
     def __post_init__(self) -> None:
+        check_fields(self)
         for name in ("symmetry_chunk_views", "symmetry_chunk_hypotheses", "poisson_chunk_views",
                      "simulation_threads"):  # fmt: skip
             _int_at_least(name, getattr(self, name), 0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Any, Literal
 
@@ -10,11 +11,19 @@ import numpy as np
 from symjax._pytree import pytree_dataclass
 from symjax.array_types import ArrayLike
 from symjax.camera import Camera
-from symjax.errors import CameraError, EmptyInputError, InvalidInputError, ShapeError
+from symjax.errors import (
+    CameraError,
+    ConfigError,
+    DegenerateGeometryError,
+    EmptyInputError,
+    InvalidInputError,
+    ShapeError,
+)
 from symjax.geometry import bucket
 from symjax.table import TablePlane
+from symjax.validation import check_fields
 
-__all__ = ["Observation", "MIN_POINTS", "stack_observations"]
+__all__ = ["MIN_POINTS", "Observation", "SceneLimits", "stack_observations"]
 
 #: Fewest valid points an observation may hold; below this no plane fit or symmetry is meaningful.
 MIN_POINTS = 10
@@ -50,6 +59,59 @@ def clean_points(points: ArrayLike, what: str = "point cloud") -> np.ndarray:
             f"{what} has {p.shape[0]} finite points; expected at least {MIN_POINTS}"
         )
     return p
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneLimits:
+    """What a table-top object and its camera can be; outside these a unit mistake is likely.
+
+    Attributes:
+        min_extent: Smallest object size (largest side of its bounding box), metres. Below it
+            the points coincide or are in a larger unit (kilometres, or metres read as mm).
+        max_extent: Largest object size, metres. Above it the points are likely millimetres.
+        max_distance: Farthest object point from the camera, metres.
+    """
+
+    min_extent: float = 0.005
+    max_extent: float = 2.0
+    max_distance: float = 10.0
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        if not 0 < self.min_extent < self.max_extent:
+            raise ConfigError(
+                f"SceneLimits needs 0 < min_extent < max_extent, got {self.min_extent},"
+                f" {self.max_extent}"
+            )
+        if not self.max_distance > 0:
+            raise ConfigError(f"max_distance must be > 0 m, got {self.max_distance}")
+
+    def check(self, points: np.ndarray, camera: Camera, what: str = "the object") -> None:
+        """Raises when ``points`` (M, 3) or their camera distance are outside the limits.
+
+        Raises:
+            InvalidInputError: Too large or too far (likely millimetres passed as metres).
+            DegenerateGeometryError: Too small: the points coincide, or the unit is wrong.
+        """
+        extent = float(np.max(np.ptp(points, axis=0)))
+        if extent > self.max_extent:
+            raise InvalidInputError(
+                f"{what} is {extent:.4g} m across; a table-top object is at most"
+                f" {self.max_extent} m (SceneLimits.max_extent): are the points in millimetres?"
+                " symjax works in metres"
+            )
+        if extent < self.min_extent:
+            raise DegenerateGeometryError(
+                f"{what} is {extent * 1e3:.4g} mm across; expected at least"
+                f" {self.min_extent * 1e3:g} mm (SceneLimits.min_extent): the points coincide or"
+                " are in a larger unit than metres"
+            )
+        far = float(np.max(np.linalg.norm(points - np.asarray(camera.position), axis=1)))
+        if far > self.max_distance:
+            raise InvalidInputError(
+                f"{what} is {far:.4g} m from the camera; expected at most {self.max_distance} m"
+                " (SceneLimits.max_distance): are the points or the camera pose in millimetres?"
+            )
 
 
 def render_points(points: np.ndarray, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
@@ -134,8 +196,11 @@ class Observation:
         mask: ArrayLike,
         depth: ArrayLike,
         valid: Any = None,
+        limits: SceneLimits | None = None,
     ) -> Observation:
         """Builds a validated observation from given mask and depth images.
+
+        ``limits`` (default :class:`SceneLimits`) bounds the object's size and distance.
 
         Raises:
             ShapeError: If shapes disagree (points not (N, 3), mask/depth not (H, W) of the camera).
@@ -155,6 +220,7 @@ class Observation:
                 raise ShapeError(f"valid must have shape ({len(p)},), got {valid.shape}")
             p = p[valid]
         p = clean_points(p)
+        (SceneLimits() if limits is None else limits).check(p, camera)
         _check_in_front(p, camera)
         mask = np.asarray(mask)
         depth = np.asarray(depth, dtype=np.float32)
@@ -184,6 +250,7 @@ class Observation:
         table: TablePlane,
         fill: MaskFill = "close",
         close_px: int = 2,
+        limits: SceneLimits | None = None,
     ) -> Observation:
         """Builds an observation whose mask and depth image come from projecting the points.
 
@@ -195,12 +262,20 @@ class Observation:
                 closing of radius ``close_px`` pixels), ``"hull"`` (the reference code's convex hull
                 of the projection) or ``"none"``.
             close_px: Closing radius in pixels for ``fill="close"``.
+            limits: Bounds of the object's size and distance (default :class:`SceneLimits`).
 
         Raises:
             EmptyInputError: Fewer than 10 finite points, or none projects into the image.
             CameraError: Points behind the camera.
+            InvalidInputError, DegenerateGeometryError: Outside ``limits`` (a unit mistake).
         """
+        if not isinstance(camera, Camera):
+            raise InvalidInputError(
+                f"camera must be a symjax.Camera (e.g. Camera.create(K, T_world_cam, width,"
+                f" height)), got {type(camera).__name__}"
+            )
         p = clean_points(points)
+        (SceneLimits() if limits is None else limits).check(p, camera)
         _check_in_front(p, camera)
         mask, depth = render_points(p, camera)
         if not mask.any():
@@ -209,7 +284,7 @@ class Observation:
                 f"{camera.width}x{camera.height} image"
             )
         mask = fill_mask(mask, fill, close_px)
-        return cls.create(p, camera, table, mask, depth)
+        return cls.create(p, camera, table, mask, depth, limits=limits)
 
     @property
     def n_valid(self) -> int:

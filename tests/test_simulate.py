@@ -22,7 +22,6 @@ from symjax.grasp.planner import plan, rank
 from symjax.grasp.sim_config import SimulationConfig
 from symjax.table import TablePlane
 
-# symjax.grasp.simulate is also the function's name; this is the module.
 SMALL = CandidateConfig(n_approach=6, distances=(0.05,), n_rays=24, n_rolls=4)
 TOP = 5
 

@@ -7,10 +7,11 @@ field with its unit, its doc and its default.
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Callable
 
-__all__ = ["COMMANDS", "main"]
+__all__ = ["COMMANDS", "console", "main"]
 
 
 def _eval(argv: list[str]) -> int:
@@ -54,6 +55,23 @@ _USAGE = (
         + "\n\nRun 'symjax <command> --help' for a command's options."
     )
 )
+
+
+def console() -> None:
+    """The console command: :func:`main`, then exit with its status.
+
+    After Ctrl-C (status 130) it exits at once: every result file is already written
+    atomically, and finalisers of half-stopped JAX and matplotlib threads can crash at exit.
+    """
+    from symjax import _interrupt
+
+    _interrupt.install()
+    status = main()
+    if status == 130:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
+    sys.exit(status)
 
 
 def main(argv: list[str] | None = None) -> int:

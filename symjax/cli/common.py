@@ -61,9 +61,13 @@ def run(prog: str, body: Callable[[list[str]], int], argv: Sequence[str] | None 
         The body's status; 2 with one line on stderr on a :class:`SymjaxError`, tyro's status
         on ``--help`` or a bad flag, 130 on Ctrl-C.
     """
+    from symjax import _interrupt
+
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        return int(body(argv) or 0)
+        status = int(body(argv) or 0)
+        _interrupt.check()  # an interrupt swallowed on the way still ends the run as one
+        return status
     except SymjaxError as e:
         print(f"{prog}: error: {e}", file=sys.stderr)
         return 2

@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 from symjax.cli.common import PresetArgs, parse, run
+from symjax.evaluation.driver import writable_folder
 from symjax.execution import ExecutionConfig
 from symjax.symmetry.config import SymmetryConfig
 
@@ -78,7 +79,7 @@ def _body(argv: list[str]) -> int:
     from symjax.symmetry import search_batch
 
     args = parse(DemoCommand, argv, "symjax demo", __doc__)
-    out = Path(args.out_dir)
+    out = writable_folder(args.out_dir)
     cfg = args.symmetry
     t0 = time.perf_counter()
     views = []

@@ -17,7 +17,6 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from symjax.configs.fields import build
 from symjax.datasets.stereo import StereoHead
 from symjax.decompose.config import DecomposeConfig
 from symjax.errors import ConfigError, FileFormatError, MissingFileError, unknown_name
@@ -30,6 +29,7 @@ from symjax.resources import preset_dir
 from symjax.robots.platform import PlatformConfig
 from symjax.surface.config import DelaunayConfig, NormalsConfig, PoissonConfig
 from symjax.symmetry.config import SymmetryConfig
+from symjax.validation import build
 
 __all__ = ["SECTIONS", "Preset", "load", "preset_names"]
 

@@ -189,9 +189,15 @@ def benchmark(
             ctx = multiprocessing.get_context("spawn")
             # Largest jobs first balances the workers.
             jobs.sort(key=lambda j: -len(j[1]))
-            with cf.ProcessPoolExecutor(n_workers, mp_context=ctx) as pool:
+            pool = cf.ProcessPoolExecutor(n_workers, mp_context=ctx)
+            try:
                 for res in pool.map(_generate_dataset_star, jobs):
                     results += res
+            except BaseException:
+                # Ctrl-C or a failed job: stop now rather than wait for every queued dataset.
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+            pool.shutdown()
         # Re-read: another process may have added views meanwhile.
         index = _read_index(index_path, seed, config)
         for name, n_points in results:

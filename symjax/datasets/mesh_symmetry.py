@@ -20,6 +20,7 @@ from symjax.errors import (
 )
 from symjax.geometry import reflect
 from symjax.metrics import surface_distance
+from symjax.validation import check_fields
 
 __all__ = [
     "MeshSymmetryConfig",
@@ -62,6 +63,9 @@ class MeshSymmetryConfig:
     n_reference: int = 60000
     n_verify: int = 6000
     seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from symjax.errors import (
     DegenerateGeometryError,
 )
 from symjax.geometry import rot_z
+from symjax.validation import check_fields
 
 __all__ = ["PreprocessConfig", "area_centroid", "preprocess_mesh", "table_principal_axis"]
 
@@ -41,6 +42,9 @@ class PreprocessConfig:
     min_part_area: float = 0.05
     max_hole_fill: int = 200
     merge_tol: float = 1e-6
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 def area_centroid(mesh: MeshLike) -> np.ndarray:

@@ -27,6 +27,7 @@ from symjax.geometry import backproject, pixel_rays
 from symjax.metrics import surface_distance
 from symjax.observation import Observation
 from symjax.table import TablePlane
+from symjax.validation import check_fields
 
 __all__ = [
     "GENERATOR_VERSION",
@@ -61,6 +62,9 @@ class BenchmarkConfig:
     noise: StereoNoise = field(default_factory=StereoNoise)
     orientations_deg: tuple[float, ...] = ORIENTATIONS_DEG
     max_offset: float = 0.03
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
     def key(self) -> str:
         """Short hash of the configuration and generator version (names cache folders)."""

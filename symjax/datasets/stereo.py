@@ -35,6 +35,7 @@ from symjax.array_types import ArrayLike
 from symjax.camera import Camera
 from symjax.errors import ConfigError
 from symjax.geometry import pixel_rays
+from symjax.validation import check_fields
 
 __all__ = ["StereoHead", "StereoNoise", "simulate_stereo", "outline_bands"]
 
@@ -74,6 +75,7 @@ class StereoHead:
     target_pixels: tuple[float, float] = (6000.0, 30000.0)
 
     def __post_init__(self) -> None:
+        check_fields(self)
         if self.width <= 0 or self.height <= 0 or self.fx <= 0 or self.fy <= 0:
             raise ConfigError("stereo head image size and focal lengths must be positive")
         if self.baseline <= 0:
@@ -159,6 +161,7 @@ class StereoNoise:
     enabled: bool = True
 
     def __post_init__(self) -> None:
+        check_fields(self)
         if self.disparity_sigma < 0 or self.disparity_clip < 0 or self.subpixel < 0:
             raise ConfigError("disparity_sigma, disparity_clip and subpixel must be >= 0")
         if not 0 < self.grazing_deg <= 90:

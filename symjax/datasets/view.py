@@ -1,6 +1,6 @@
 """One benchmark view: a partial observation plus whatever ground truth the data source has.
 
-The simulated benchmark (:mod:`symjax.datasets.benchmark`) fills every field; a loader of the
+The simulated benchmark (:func:`symjax.datasets.benchmark`) fills every field; a loader of the
 paper's real KTH database produces the same type with ``gt_mesh=None`` and, where no pose is
 known, ``gt_pose=None`` and ``symmetry_planes=None``. Downstream code is data-source agnostic.
 """

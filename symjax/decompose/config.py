@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 from symjax.errors import ConfigError
+from symjax.validation import check_fields
 
 __all__ = ["DecomposeConfig"]
 
@@ -33,6 +34,7 @@ class DecomposeConfig:
     seed: int = 0
 
     def __post_init__(self):
+        check_fields(self)
         if not 0.01 <= self.threshold <= 1.0:
             raise ConfigError(f"threshold must be in [0.01, 1], got {self.threshold}")
         if self.max_hulls == 0 or self.max_hulls < -1:

@@ -11,6 +11,7 @@ import hashlib
 import io
 import os
 import time
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -127,7 +128,7 @@ def _load(path: Path) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
         with np.load(path) as z:
             n = int(z["n"])
             return tuple((z[f"v{i}"], z[f"f{i}"]) for i in range(n))
-    except (OSError, KeyError, ValueError) as e:
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as e:
         raise FileFormatError(f"corrupt coacd cache file {path}: {e}") from e
 
 

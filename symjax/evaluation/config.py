@@ -12,6 +12,7 @@ from symjax.errors import ConfigError, unknown_name
 from symjax.execution import ExecutionConfig
 from symjax.surface import DelaunayConfig, NormalsConfig, PoissonConfig
 from symjax.symmetry import SymmetryConfig
+from symjax.validation import check_fields
 
 __all__ = ["METHODS", "POISSON_DEPTHS", "EvalConfig", "parse_subset"]
 
@@ -67,6 +68,7 @@ class EvalConfig:
     execution: ExecutionConfig = dataclasses.field(default_factory=ExecutionConfig)
 
     def __post_init__(self) -> None:
+        check_fields(self)
         _require(len(self.methods) > 0, "methods is empty; expected some of Del, Mir5, Mir7")
         for m in self.methods:
             if m not in METHODS:

@@ -8,18 +8,75 @@ configuration key (:meth:`EvalConfig.key`, the numbers alone) are skipped.
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from symjax import _interrupt
 from symjax._atomic import atomic_write_json
+from symjax.errors import ConfigError, InvalidInputError
 from symjax.evaluation.config import EvalConfig
 from symjax.evaluation.records import ViewRecord, load_records, rows_of, view_file
 from symjax.evaluation.selection import select_views
 from symjax.evaluation.stages import process_batch
 
-__all__ = ["evaluate", "run_evaluation"]
+__all__ = ["claim_folder", "evaluate", "run_evaluation", "writable_folder"]
+
+
+def writable_folder(path: str | Path) -> Path:
+    """Creates ``path`` and checks that files can be written there, before any work starts.
+
+    Raises:
+        InvalidInputError: It cannot be created or written (a file in the way, no permission).
+    """
+    p = Path(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+        probe = p / ".symjax-write-test"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as e:
+        raise InvalidInputError(
+            f"cannot write to the output folder {str(p)!r} ({e.strerror or e}); expected a"
+            " folder that can be created and written"
+        ) from None
+    return p
+
+
+def claim_folder(cfg: EvalConfig, names: list[str]) -> None:
+    """Refuses an output folder that holds another run's results.
+
+    ``run.json`` records the numbers' key, the methods and the views. A run with the same ones
+    resumes; any other would rewrite the tables for a different selection or mix results of
+    other settings, so it stops with a message instead.
+
+    Raises:
+        ConfigError: The folder belongs to a run of other settings or another view selection.
+    """
+    path = Path(cfg.out_dir) / "run.json"
+    mine = {"config_key": cfg.key(), "methods": list(cfg.methods), "views": names}
+    if path.is_file():
+        try:
+            theirs = json.loads(path.read_text())
+        except (OSError, ValueError):
+            theirs = None  # a damaged claim is replaced
+        if isinstance(theirs, dict) and theirs != mine:
+            what = (
+                "other settings (config key {} here, {} in the folder)".format(
+                    mine["config_key"], theirs.get("config_key")
+                )
+                if theirs.get("config_key") != mine["config_key"]
+                else "another selection of views or methods ({} views, {} here)".format(
+                    len(theirs.get("views", [])), len(names)
+                )
+            )
+            raise ConfigError(
+                f"{cfg.out_dir} holds the results of a run with {what}; use another --out-dir,"
+                " or the same settings to resume"
+            )
+    atomic_write_json(path, mine)
 
 
 def evaluate(
@@ -56,6 +113,7 @@ def evaluate(
         for s in range(0, len(todo), ex.eval_batch_size):
             batch, load_s = [], []
             for i in todo[s : s + ex.eval_batch_size]:
+                _interrupt.check()
                 t0 = time.perf_counter()
                 batch.append(views[i])
                 load_s.append(time.perf_counter() - t0)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -236,11 +236,16 @@ def view_file(out_dir: str | Path, name: str) -> Path:
 
 
 def load_records(
-    out_dir: str | Path, names: Sequence[str], key: str, methods: Sequence[str]
+    out_dir: str | Path,
+    names: Sequence[str],
+    key: str,
+    methods: Sequence[str],
+    log: Callable[[str], None] | None = None,
 ) -> dict[str, ViewRecord]:
     """Per-view records already written with the configuration ``key`` and all ``methods``.
 
-    A file that does not parse into a record is left out (recomputed), never trusted.
+    A file that does not parse into a record is left out (recomputed, and said through
+    ``log``), never trusted.
     """
     done = {}
     for name in names:
@@ -249,7 +254,9 @@ def load_records(
             continue
         try:
             rec = ViewRecord.from_json(json.loads(path.read_text()))
-        except (OSError, ValueError, FileFormatError):
+        except (OSError, ValueError, FileFormatError) as e:
+            if log is not None:
+                log(f"warning: {path} is malformed ({e}); recomputing that view")
             continue
         if rec.config_key == key and all(m in rec.methods for m in methods):
             done[name] = rec

@@ -73,6 +73,10 @@ def select_views(config: EvalConfig) -> Sequence:
         from symjax.io import load_kth_directory
 
         root = Path(config.data).expanduser()
+        if root.is_file():
+            raise InvalidInputError(
+                f"--data {str(root)!r} is a file; expected a folder in the KTH database layout"
+            )
         if not root.is_dir():
             raise MissingFileError(f"--data folder {str(root)!r} does not exist")
         views = [View.from_kth(k) for k in load_kth_directory(root)]

@@ -89,21 +89,14 @@ def _plane_result(view, res) -> PlaneResult:
 
 
 def _search(observations: list, cfg: EvalConfig) -> list:
-    """Single-view symmetry results of a batch; per view on a batch failure (None where bad)."""
+    """Single-view symmetry results of a batch (None where a view could not be searched)."""
     from symjax.symmetry import search_batch
 
     try:
         res = search_batch(observations, cfg.symmetry, cfg.execution)
-        return [res[i] for i in range(len(observations))]
-    except SymjaxError:
-        # One bad view must not sink the batch: find it by searching one by one.
-        out = []
-        for o in observations:
-            try:
-                out.append(search_batch([o], cfg.symmetry, cfg.execution)[0])
-            except SymjaxError:
-                out.append(None)
-        return out
+    except SymjaxError:  # no view of the batch could be searched
+        return [None] * len(observations)
+    return [res[i] if ok else None for i, ok in enumerate(res.ok)]
 
 
 def _poisson(ops: list, depth: int, cfg: EvalConfig) -> list:

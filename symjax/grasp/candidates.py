@@ -243,7 +243,9 @@ def generate(
     drop_table = drop_object = 0
     if n:
         if hand is not None:
-            from symjax.hands import probe_points
+            from symjax.hands import as_hand, probe_points
+
+            hand = as_hand(hand)
 
             if max(config.preshapes) >= len(hand.preshape_names):
                 raise InvalidInputError(

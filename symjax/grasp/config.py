@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 from symjax.errors import ConfigError
+from symjax.validation import check_fields
 
 __all__ = ["CandidateConfig", "PINCH"]
 
@@ -41,6 +42,7 @@ class CandidateConfig:
     table_clearance: float = 0.0
 
     def __post_init__(self):
+        check_fields(self)
         if self.n_approach < 1 or self.n_rays < 1 or self.n_rolls < 1:
             raise ConfigError("n_approach, n_rays and n_rolls must be >= 1")
         if not self.distances or any(not 0.0 <= d <= 1.0 for d in self.distances):

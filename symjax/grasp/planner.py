@@ -123,8 +123,10 @@ def plan(
     Raises:
         EmptyInputError: Every candidate was dropped before simulation.
     """
+    from symjax.hands import as_hand
     from symjax.table import TablePlane
 
+    hand = as_hand(hand)
     v, f = mesh_arrays(mesh)
     t0 = time.perf_counter()
     if table is None:

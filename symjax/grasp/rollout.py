@@ -59,6 +59,9 @@ def simulate(
         EmptyInputError, ShapeError, InvalidInputError: Bad candidates or object.
         SimulationError: The scene does not compile.
     """
+    from symjax.hands import as_hand
+
+    hand = as_hand(hand)
     ex = config_or_default(execution, ExecutionConfig, "execution")
     backend = default_backend() if backend is None else backend
     if backend not in BACKENDS:

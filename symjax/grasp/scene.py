@@ -124,7 +124,9 @@ def build_scene(
         The :class:`GraspScene`.
     """
     from symjax.decompose import mass_properties
+    from symjax.hands import as_hand
 
+    hand = as_hand(hand)
     cfg = config_or_default(config, SimulationConfig)
     hulls = _hull_list(obj)
     height = _table_height(table, hulls)

@@ -67,6 +67,16 @@ def check_candidates(cands: Candidates) -> None:
     for x in (a, cands.point, cands.roll, cands.distance):
         if not np.all(np.isfinite(np.asarray(x))):
             raise InvalidInputError("candidates contain NaN or inf")
+    length = np.linalg.norm(a.astype(np.float64), axis=1)
+    off = np.abs(length - 1.0) > 1e-3
+    if off.any():
+        raise InvalidInputError(
+            f"{int(off.sum())} of {n} approach vectors are not unit length (lengths"
+            f" {length[off].min():.4g} to {length[off].max():.4g}); expected unit vectors: the"
+            " hand's start, speed and travel are set along them"
+        )
+    if np.any(np.asarray(cands.distance) < 0):
+        raise InvalidInputError("candidate approach distances must be >= 0 metres")
 
 
 def control(scene: GraspScene, k, p):

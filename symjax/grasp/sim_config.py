@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 from symjax.errors import ConfigError
+from symjax.validation import check_fields
 
 __all__ = ["SimulationConfig"]
 
@@ -109,6 +110,7 @@ class SimulationConfig:
     mjx_max_pairs: int | None = 16
 
     def __post_init__(self):
+        check_fields(self)
         positive = (
             "timestep", "approach_speed", "max_travel", "base_force", "base_kv", "base_kp_rot",
             "close_time", "lift_time", "shake_frequency", "success_distance",

@@ -23,7 +23,7 @@ from symjax.array_types import ArrayLike
 from symjax.errors import FileFormatError, InvalidInputError, MissingFileError, unknown_name
 from symjax.resources import asset_dir
 
-__all__ = ["HAND_NAMES", "PRESHAPES", "Hand", "load", "probe_points"]
+__all__ = ["as_hand", "HAND_NAMES", "PRESHAPES", "Hand", "load", "probe_points"]
 
 PRESHAPES = ("home", "open", "pinch")
 """Pre-shape keyframe names; a candidate's ``preshape`` indexes this tuple."""
@@ -160,6 +160,23 @@ class Hand:
         import jax.numpy as jnp
 
         return jnp.where(self.close_mask, self.close_ctrl, self.preshape_ctrl[preshape])
+
+
+def as_hand(hand: Hand | str) -> Hand:
+    """A :class:`Hand`, or the hand of that name (see :func:`load`).
+
+    Raises:
+        UnknownNameError: An unknown name.
+        InvalidInputError: Neither a Hand nor a name.
+    """
+    if isinstance(hand, Hand):
+        return hand
+    if isinstance(hand, str):
+        return load(hand)
+    raise InvalidInputError(
+        f"hand must be a symjax.hands.Hand or one of {', '.join(HAND_NAMES)}, got"
+        f" {type(hand).__name__}"
+    )
 
 
 def load(name: str) -> Hand:

@@ -70,6 +70,8 @@ class DepthFrame:
 def _number(path: Path, data: dict, key: str) -> float:
     if key not in data:
         raise format_error(path, f"missing key {key!r} (see the camera JSON schema)")
+    if isinstance(data[key], bool) or not isinstance(data[key], int | float):
+        raise format_error(path, f"key {key!r} must be a number, got {data[key]!r}")
     try:
         value = float(data[key])
     except (TypeError, ValueError):
@@ -218,10 +220,15 @@ def read_depth_image(path: str | os.PathLike, depth_scale: float | None = None) 
         raise format_error(p, "depth has negative values; expected metres >= 0 (0 = none)")
     measured = depth[depth > 0]
     if measured.size and np.median(measured) > MAX_PLAUSIBLE_DEPTH:
+        integer = suffix == ".png" or arr.dtype.kind in "iu"
+        fix = (
+            f"the depth scale {depth_scale} makes it so; for millimetres pass depth_scale=0.001"
+            if integer
+            else "float depth must be metres: divide it by 1000 (depth_scale applies to"
+            " integer depth only)"
+        )
         raise format_error(
-            p,
-            f"median depth is {np.median(measured):.1f} m; expected metres (is it millimetres? "
-            "then pass depth_scale=0.001 or store metres)",
+            p, f"median depth is {np.median(measured):.1f} m; expected metres (millimetres? {fix})"
         )
     return depth.astype(np.float32)
 

@@ -35,7 +35,7 @@ import numpy as np
 from symjax.camera import Camera
 from symjax.errors import InvalidInputError, MissingFileError, SymjaxError
 from symjax.io._common import existing_file, format_error
-from symjax.observation import MaskFill, Observation, render_points
+from symjax.observation import MaskFill, Observation, SceneLimits, render_points
 from symjax.table import TablePlane
 
 __all__ = [
@@ -156,6 +156,16 @@ def read_kth_segment(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, n
     if n != int(n) or n < 0:
         raise format_error(p, f"first number must be the point count, got {n}")
     n = int(n)
+    # Rows of other lengths would shift every later number into the wrong column.
+    lines = p.read_text(encoding="ascii").splitlines()
+    last = max((i for i, line in enumerate(lines) if line.strip()), default=0)
+    for i, line in enumerate(lines[1:], start=1):
+        k = len(line.split())
+        if k and k != 8:
+            cut = " (the last row is cut short: truncated file)" if i == last and k < 8 else ""
+            raise format_error(
+                p, f"line {i + 1} has {k} numbers; every row holds 8 ('x y z u v r g b'){cut}"
+            )
     rows = vals[1:]
     if rows.size != 8 * n:
         raise format_error(
@@ -288,6 +298,20 @@ def load_kth_view(
     centre = read_kth_viewpoint(viewpoint_path) * MM
     cal = read_kth_calibration(calib_path)
     pts = xyz_mm * MM
+    extent = float(np.max(np.ptp(pts, axis=0)))
+    if extent < SceneLimits().min_extent:
+        raise format_error(
+            crd,
+            f"the points span {extent * 1e3:.3g} mm after reading them as millimetres; the file"
+            " looks like it is in metres, but the KTH format stores millimetres (multiply by 1000)",
+        )
+    dist = float(np.linalg.norm(centre - pts.mean(axis=0)))
+    if dist < 0.05:
+        raise format_error(
+            viewpoint_path,
+            f"the viewpoint is {dist * 1e3:.3g} mm from the points after reading it as"
+            " millimetres; it looks like metres, but the KTH format stores millimetres",
+        )
     look = Camera.look_at(centre, pts.mean(axis=0), cal.K_left, cal.width, cal.height)
     cam = look
     if camera == "uv":
@@ -333,6 +357,8 @@ def load_kth_directory(root: str | os.PathLike, **kwargs) -> list[KthView]:
         FileFormatError: A file is corrupt (the message names it).
     """
     base = Path(root)
+    if base.is_file():
+        raise InvalidInputError(f"{str(base)!r} is a file; expected a KTH database folder")
     if not base.is_dir():
         raise MissingFileError(f"KTH database folder {str(base)!r} does not exist")
     found = [p for p in base.rglob("*") if p.is_file() and _SEGMENT.match(p.name)]

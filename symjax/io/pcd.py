@@ -56,6 +56,13 @@ def read_pcd(path: Path, scale: float) -> PointCloud:
     for axis in "xyz":
         if axis not in fields:
             raise format_error(path, f"PCD has no field {axis!r} (fields: {' '.join(fields)})")
+    for f, c in zip(fields, counts, strict=True):
+        if c != 1 and f in ("x", "y", "z", "normal_x", "normal_y", "normal_z", "rgb", "rgba"):
+            raise format_error(
+                path,
+                f"PCD field {f!r} has COUNT {c}; symjax reads x, y, z, normal_x/y/z and rgb(a)"
+                " with COUNT 1 (other fields may have any COUNT)",
+            )
     cols: dict[str, np.ndarray] = {}
     if kind == "ascii":
         text = raw[pos:].decode("ascii", errors="replace")

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from symjax.errors import SymjaxError
 from symjax.io._common import format_error
 from symjax.io.cloud_data import PointCloud, finish
 
@@ -17,7 +18,10 @@ def read_ply(path: Path, scale: float) -> PointCloud:
     import trimesh
 
     try:
+        _check_body(path)
         geom = trimesh.load(str(path), file_type="ply", process=False)
+    except SymjaxError:
+        raise
     except Exception as e:  # trimesh raises many types on corrupt input
         raise format_error(path, f"cannot parse the PLY ({type(e).__name__}: {e})") from None
     verts = getattr(geom, "vertices", None)
@@ -39,6 +43,32 @@ def read_ply(path: Path, scale: float) -> PointCloud:
 
 
 # PCD TYPE letter and SIZE in bytes -> numpy dtype code.
+def _check_body(path: Path) -> None:
+    """An ASCII PLY must hold the rows its header declares (trimesh reads what is there)."""
+    with open(path, "rb") as fh:
+        head: list[str] = []
+        for raw in fh:
+            line = raw.decode("ascii", errors="replace").strip()
+            head.append(line)
+            if line == "end_header" or len(head) > 200:
+                break
+        if not head or head[0] != "ply" or "end_header" not in head:
+            return  # not a PLY header: trimesh's own error says so
+        if not any(h.startswith("format ascii") for h in head):
+            return
+        elements = [h.split() for h in head if h.startswith("element ")]
+        counts = [(e[1], int(e[2])) for e in elements if len(e) == 3 and e[2].isdigit()]
+        want = sum(c for _, c in counts)
+        rows = sum(1 for raw in fh if raw.strip())
+    if rows < want:
+        what = ", ".join(f"{c} {name}" for name, c in counts)
+        raise format_error(
+            path,
+            f"the header declares {what} ({want} rows) but the body holds {rows}: line"
+            f" {len(head) + rows + 1} is missing (truncated file)",
+        )
+
+
 def ply_bytes(pts, colors, normals, binary: bool) -> bytes:
     names = [("x", "f4"), ("y", "f4"), ("z", "f4")]
     if normals is not None:

@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 from symjax.errors import ConfigError
+from symjax.validation import check_fields
 
 __all__ = ["SegmentationConfig"]
 
@@ -86,6 +87,7 @@ class SegmentationConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        check_fields(self)
         if self.ransac_hypotheses < 1 or self.ransac_sample < 3:
             raise ConfigError(
                 f"ransac_hypotheses must be >= 1 and ransac_sample >= 3, got "

@@ -6,6 +6,7 @@ import dataclasses
 from typing import Literal
 
 from symjax.errors import ConfigError
+from symjax.validation import check_fields
 
 __all__ = ["PlatformConfig"]
 
@@ -29,6 +30,7 @@ class PlatformConfig:
     generator: Literal["kth", "uji", "openrave"] = "kth"
 
     def __post_init__(self) -> None:
+        check_fields(self)
         from symjax.robots.robot import ROBOT_NAMES, robot_hand
 
         if self.robot not in ROBOT_NAMES:

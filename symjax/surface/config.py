@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 from symjax.errors import ConfigError
+from symjax.validation import check_fields
 
 __all__ = ["DelaunayConfig", "NormalsConfig", "PoissonConfig"]
 
@@ -30,6 +31,7 @@ class NormalsConfig:
     outlier_std: float = 3.0
 
     def __post_init__(self) -> None:
+        check_fields(self)
         _require(isinstance(self.k, int) and self.k >= 3, f"k must be an int >= 3, got {self.k!r}")
         _require(
             isinstance(self.outlier_k, int) and self.outlier_k >= 0,
@@ -68,6 +70,7 @@ class PoissonConfig:
     keep_largest: bool = True
 
     def __post_init__(self) -> None:
+        check_fields(self)
         _require(
             isinstance(self.depth, int) and 2 <= self.depth <= 8,
             f"depth must be an int in [2, 8] (paper: 5 or 7), got {self.depth!r}",
@@ -116,6 +119,7 @@ class DelaunayConfig:
     min_points: int = 20
 
     def __post_init__(self) -> None:
+        check_fields(self)
         _require(
             isinstance(self.n_samples, int) and self.n_samples >= 4,
             f"n_samples must be an int >= 4, got {self.n_samples!r}",

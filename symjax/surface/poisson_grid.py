@@ -210,6 +210,16 @@ def _check_view(points, normals, weights, cfg: PoissonConfig, i: int | None = No
                 f"only {int(np.sum(w > 0))} points have a positive weight; need {cfg.min_points}"
             )
     check_not_degenerate(p, cfg.min_points)
+    # A few stray points would stretch the grid over empty space and swell the mesh into a blob.
+    lo, hi = np.percentile(p, [1.0, 99.0], axis=0)
+    robust, full = float(np.max(hi - lo)), float(np.max(np.ptp(p, axis=0)))
+    if full > 3.0 * robust + 0.02:
+        far = int(np.sum(np.any((p < lo - robust) | (p > hi + robust), axis=1)))
+        raise DegenerateGeometryError(
+            f"{what}: {far} points lie far from the rest (the cloud spans {full:.3g} m, 98% of it"
+            f" {robust:.3g} m); expected one object: drop them first"
+            " (symjax.surface.outlier_mask)"
+        )
     return p, n, w
 
 
@@ -280,7 +290,8 @@ def solve_grids(
     for name, arr in (("normals", normals), ("weights", weights), ("valid", valid)):
         if tuple(np.shape(arr)) != expected[name]:
             raise ShapeError(f"{name} must have shape {expected[name]}, got {np.shape(arr)}")
-    chunk = b if chunk == 0 else min(chunk, b)
+    # Never a vmap of width 1: widths >= 2 give every view the same bits whatever its batch.
+    chunk = max(2, b if chunk == 0 else min(chunk, b))
     pad = (-b) % chunk
     arrs = [points, jnp.asarray(normals), jnp.asarray(weights), jnp.asarray(valid, bool)]
     if pad:

@@ -7,6 +7,7 @@ import math
 from typing import Literal
 
 from symjax.errors import ConfigError
+from symjax.validation import check_fields
 
 __all__ = ["SymmetryConfig"]
 
@@ -86,6 +87,7 @@ class SymmetryConfig:
     plausibility_depth: float = 0.01
 
     def __post_init__(self) -> None:
+        check_fields(self)
         if self.n_angles < 1 or self.n_shifts < 1:
             raise ConfigError(
                 f"n_angles and n_shifts must be >= 1, got {self.n_angles}, {self.n_shifts}"

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from symjax._pytree import pytree_dataclass
+from symjax._pytree import pytree_dataclass, static_field
 from symjax.errors import ShapeError
 
 __all__ = ["SymmetryResult"]
@@ -48,6 +49,8 @@ class SymmetryResult:
         mirrored: (N, 3) points mirrored across the best plane.
         mirrored_keep: (N,) mirrored points kept in the completion (valid and not in front of an
             observed surface).
+        errors: Batched results only: per view None, or the :class:`~symjax.errors.SymjaxError`
+            that kept it from being searched (its float fields are NaN; indexing it raises).
         plausibility: (N,) plausibility in [0, 1] of each mirrored point under the best plane.
     """
 
@@ -74,6 +77,7 @@ class SymmetryResult:
     mirrored: Any
     mirrored_keep: Any
     plausibility: Any
+    errors: Any = static_field(default=None)
 
     @property
     def completed_points(self):
@@ -105,6 +109,20 @@ class SymmetryResult:
             raise TypeError("a single-view SymmetryResult has no len()")
         return int(np.shape(self.points)[0])
 
+    @property
+    def ok(self) -> np.ndarray:
+        """(B,) bool of a batched result: which views were searched (see :attr:`errors`)."""
+        if self.errors is None:
+            return np.ones(len(self), bool)
+        return np.array([e is None for e in self.errors])
+
     def __getitem__(self, i) -> SymmetryResult:
-        """The result of view ``i`` of a batched result."""
-        return jax.tree_util.tree_map(lambda x: x[i], self)
+        """The result of view ``i`` of a batched result.
+
+        Raises:
+            SymjaxError: View ``i`` could not be searched; the error says why.
+        """
+        if self.errors is not None and self.errors[i] is not None:
+            e = self.errors[i]
+            raise type(e)(f"view {i} of the batch was not searched: {e}")
+        return dataclasses.replace(jax.tree_util.tree_map(lambda x: x[i], self), errors=None)

@@ -7,6 +7,7 @@ batch by ``lax.map`` (chunks of ``vmap``) inside the same ``jit``.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Sequence
 
@@ -14,7 +15,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from symjax.errors import InvalidInputError, config_or_default
+from symjax.errors import (
+    DegenerateGeometryError,
+    InvalidInputError,
+    SymjaxError,
+    config_or_default,
+)
 from symjax.execution import ExecutionConfig
 from symjax.geometry import bucket
 from symjax.observation import Observation
@@ -41,12 +47,26 @@ def _search_batch_jit(
     return jax.lax.map(lambda v: search_view(v, cfg, gate, chunk_planes), views, batch_size=chunk)
 
 
+def _checked_plane(res: SymmetryResult) -> None:
+    n = np.asarray(res.normal, np.float64)
+    if not (np.all(np.isfinite(n)) and abs(np.linalg.norm(n) - 1.0) < 1e-3):
+        raise DegenerateGeometryError(
+            f"the search found no plane for this view (normal {n.tolist()}); the view is"
+            " degenerate (too few distinct points or no spread)"
+        )
+    if not (np.isfinite(float(res.offset)) and np.isfinite(float(res.vote))):
+        raise DegenerateGeometryError("the best plane has a NaN offset or vote; degenerate view")
+
+
 def search(
     obs: Observation,
     config: SymmetryConfig | None = None,
     execution: ExecutionConfig | None = None,
 ) -> SymmetryResult:
     """Finds the reflection symmetry plane perpendicular to the table of one view.
+
+    The unbatched kernel: it agrees with :func:`search_batch` to float32 rounding (about 1e-6
+    in the normal); a view's result in any batch is ``search_batch([obs])[0]`` bit for bit.
 
     Args:
         obs: One observation (points padded to any size; images of the camera's size).
@@ -60,13 +80,42 @@ def search(
 
     Raises:
         InvalidInputError: Bad observation (see :meth:`symjax.Observation.create`).
+        DegenerateGeometryError: The view has no spread on the table, or no plane was found.
     """
     cfg = config_or_default(config, SymmetryConfig)
     ex = config_or_default(execution, ExecutionConfig, "execution")
     if not isinstance(obs, Observation):
         raise InvalidInputError(f"search expects a symjax.Observation, got {type(obs).__name__}")
     view = prepare_view(obs, bucket(len(np.asarray(obs.points))))
-    return _search_jit(view, cfg, ex.symmetry_chunk_hypotheses)
+    res = _search_jit(view, cfg, ex.symmetry_chunk_hypotheses)
+    _checked_plane(res)
+    return res
+
+
+def _run_group(views: list[ViewArrays], cfg: SymmetryConfig, ex: ExecutionConfig) -> list:
+    """Single-view results of views with one image shape, in one jitted call.
+
+    The vmap width never drops to 1 (a batch of one is paired with itself): widths of 2 and more
+    compute every view bit for bit alike, so a view's result does not depend on its batch.
+    """
+    n = max(int(v.points.shape[0]) for v in views)
+    views = [v if v.points.shape[0] == n else _padded_points(v, n) for v in views]
+    chunk = ex.symmetry_chunk_views if ex.symmetry_chunk_views > 0 else len(views)
+    chunk = max(2, min(chunk, len(views)))
+    padded = views + [views[0]] * ((-len(views)) % chunk)
+    stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *padded)
+    out = jax.device_get(_search_batch_jit(stacked, cfg, chunk, ex.symmetry_chunk_hypotheses))
+    return [jax.tree_util.tree_map(lambda x, i=i: x[i], out) for i in range(len(views))]
+
+
+def _padded_points(v: ViewArrays, n: int) -> ViewArrays:
+    m = int(v.points.shape[0])
+    pad = n - m
+    return dataclasses.replace(
+        v,
+        points=jnp.concatenate([v.points, jnp.zeros((pad, 3), v.points.dtype)]),
+        valid=jnp.concatenate([v.valid, jnp.zeros(pad, bool)]),
+    )
 
 
 def search_batch(
@@ -74,11 +123,14 @@ def search_batch(
     config: SymmetryConfig | None = None,
     execution: ExecutionConfig | None = None,
 ) -> SymmetryResult:
-    """Searches all hypotheses of all views in one jitted call.
+    """Searches all hypotheses of all views in one jitted call per image size.
 
-    Views are padded to a common number of points (:func:`symjax.geometry.bucket`) and
-    image size, then scored by ``lax.map`` over chunks of ``execution.symmetry_chunk_views``
-    views, each chunk one ``vmap``.
+    Views are padded to a common number of points (:func:`symjax.geometry.bucket`) and scored by
+    ``lax.map`` over chunks of ``execution.symmetry_chunk_views`` views, each chunk one
+    ``vmap``. A view that cannot be searched (NaN points, no spread, no plane found) does not
+    stop the batch: ``result.ok[i]`` is False, ``result.errors[i]`` says why, its float fields
+    are NaN and ``result[i]`` raises. Each view's result is independent of the other views of
+    the batch, bit for bit on the CPU.
 
     Args:
         observations: Single-view observations.
@@ -87,6 +139,9 @@ def search_batch(
 
     Returns:
         A batched :class:`SymmetryResult` (leading axis = view; ``result[i]`` is view i).
+
+    Raises:
+        InvalidInputError: Not a sequence of Observations, or no view could be searched.
     """
     cfg = config_or_default(config, SymmetryConfig)
     ex = config_or_default(execution, ExecutionConfig, "execution")
@@ -100,29 +155,59 @@ def search_batch(
             raise InvalidInputError(
                 f"search_batch item {i} is a {type(o).__name__}, expected a symjax.Observation"
             )
-    n = bucket(max(len(np.asarray(o.points)) for o in observations))
-    views = [prepare_view(o, n) for o in observations]
-    H = max(v.image.shape[0] for v in views)
-    W = max(v.image.shape[1] for v in views)
-    padded = []
-    for v in views:
-        h, w = v.image.shape[:2]
-        if (h, w) != (H, W):
-            img = np.asarray(v.image)
-            # Pixels beyond a smaller image are outside its mask: extend the distance transform.
-            import cv2
+    errors: list[SymjaxError | None] = [None] * len(observations)
+    views: dict[int, ViewArrays] = {}
+    for i, o in enumerate(observations):
+        try:
+            views[i] = prepare_view(o, bucket(len(np.asarray(o.points))))
+        except SymjaxError as e:
+            errors[i] = e
+    if not views:
+        raise InvalidInputError(
+            "no view of the batch could be searched: "
+            + "; ".join(f"view {i}: {e}" for i, e in enumerate(errors))
+        )
+    # Views of one image size share a call; results hold no image, so sizes never mix.
+    groups: dict[tuple[int, int], list[int]] = {}
+    for i, v in views.items():
+        groups.setdefault(tuple(v.image.shape[:2]), []).append(i)
+    single: dict[int, SymmetryResult] = {}
+    for idx in groups.values():
+        for i, r in zip(idx, _run_group([views[i] for i in idx], cfg, ex), strict=True):
+            try:
+                _checked_plane(r)
+                single[i] = r
+            except SymjaxError as e:
+                errors[i] = e
+    if not single:
+        raise InvalidInputError(
+            "no view of the batch has a plane: "
+            + "; ".join(f"view {i}: {e}" for i, e in enumerate(errors) if e is not None)
+        )
+    n = max(int(np.shape(r.points)[0]) for r in single.values())
+    template = next(iter(single.values()))
+    rows = [_fit(single.get(i), template, n) for i in range(len(observations))]
+    stacked = jax.tree_util.tree_map(lambda *xs: jnp.asarray(np.stack(xs)), *rows)
+    return dataclasses.replace(
+        stacked, errors=tuple(errors) if any(e is not None for e in errors) else None
+    )
 
-            mask = img[..., 0] <= 0
-            big = np.zeros((H, W), bool)
-            big[:h, :w] = mask
-            dt = cv2.distanceTransform((~big).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-            depth = np.zeros((H, W), np.float32)
-            depth[:h, :w] = img[..., 1]
-            v = ViewArrays(**{**v.__dict__, "image": jnp.asarray(np.stack([dt, depth], -1))})
-        padded.append(v)
-    stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *padded)
-    chunk = ex.symmetry_chunk_views if ex.symmetry_chunk_views > 0 else len(padded)
-    return _search_batch_jit(stacked, cfg, min(chunk, len(padded)), ex.symmetry_chunk_hypotheses)
+
+def _fit(res: SymmetryResult | None, template: SymmetryResult, n: int) -> SymmetryResult:
+    """One row of a batched result: point arrays padded to ``n``; a failed view is NaN."""
+
+    def one(x, t):
+        x = (
+            np.full_like(np.asarray(t), np.nan if np.asarray(t).dtype.kind == "f" else 0)
+            if res is None
+            else np.asarray(x)
+        )
+        if x.ndim >= 1 and x.shape[0] == np.shape(template.points)[0] and x.shape[0] != n:
+            pad = np.zeros((n - x.shape[0], *x.shape[1:]), x.dtype)
+            x = np.concatenate([x, pad])
+        return x
+
+    return jax.tree_util.tree_map(one, template if res is None else res, template)
 
 
 def complete(
@@ -140,6 +225,9 @@ def complete(
     Returns:
         One ``(M_i, 3)`` float array per view, metres, world frame; a single observation gives
         a list of one. Use :func:`search_batch` for the planes and votes.
+
+    Raises:
+        SymjaxError: A view could not be completed (the batch's error for that view).
     """
     if isinstance(observations, Observation):
         observations = [observations]

@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from symjax._pytree import pytree_dataclass
-from symjax.errors import InvalidInputError, ShapeError
+from symjax.errors import DegenerateGeometryError, InvalidInputError, ShapeError
 from symjax.observation import MIN_POINTS, Observation
 
 __all__ = ["ViewArrays", "prepare_view"]
@@ -67,9 +67,26 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
         raise ShapeError(f"mask {mask.shape} and depth {depth.shape} images must match")
     if not mask.any():
         raise InvalidInputError("segmentation mask is empty")
-    n_valid = int(np.asarray(obs.valid).sum())
+    valid = np.asarray(obs.valid, bool)
+    n_valid = int(valid.sum())
     if n_valid < MIN_POINTS:
         raise InvalidInputError(f"observation has {n_valid} valid points; need >= {MIN_POINTS}")
+    pts = np.asarray(obs.points, np.float64)[valid]
+    bad = int(np.sum(~np.all(np.isfinite(pts), axis=1)))
+    if bad:
+        raise InvalidInputError(
+            f"{bad} of the {n_valid} valid points are NaN or inf; expected finite points (build"
+            " the view with Observation.create, which drops them)"
+        )
+    # The search needs a spread on the table: a vertical line or coinciding points give no axis.
+    n = np.asarray(obs.table.normal, np.float64)
+    flat = pts - np.outer(pts @ n, n)
+    spread = float(np.max(np.ptp(flat, axis=0)))
+    if spread < 1e-4:
+        raise DegenerateGeometryError(
+            f"the valid points span {spread * 1e3:.3g} mm on the table; expected an object at"
+            " least 0.1 mm wide (coinciding points, or points on one vertical line)"
+        )
     if n_points is not None:
         obs = obs.padded(n_points)
     # Distance (pixels) from every pixel to the nearest mask pixel; exact Euclidean.

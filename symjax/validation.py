@@ -1,8 +1,10 @@
-"""Filling frozen config dataclasses from TOML tables, with errors that name the key.
+"""Type checks of config dataclass fields, shared by the configs and the TOML loader.
 
 Every value is checked against the field's type annotation (``bool``, ``int``, ``float``,
-``str``, ``Literal[...]``, ``tuple[...]``, ``X | None``, nested dataclasses) before the
-dataclass's own ``__post_init__`` checks its range. TOML has no null: ``"none"`` stands for None.
+``str``, ``Literal[...]``, ``tuple[...]``, ``X | None``, nested dataclasses): floats must be
+finite, ints may not be bools or floats. :func:`check_fields` runs first in every config's
+``__post_init__``, before its range checks, so NaN never reaches a comparison; :func:`build`
+fills a config from a TOML table, where ``"none"`` stands for None.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from typing import Any
 
 from symjax.errors import ConfigError
 
-__all__ = ["build", "describe"]
+__all__ = ["build", "check_fields", "describe"]
 
 
 def describe(hint: Any) -> str:
@@ -110,7 +112,7 @@ def build(cls: type, table: dict[str, Any], where: str, base: Any = None):
         ConfigError: Unknown key, wrong type, or a value the dataclass rejects; the message
             names the key, the value and what is accepted.
     """
-    hints = typing.get_type_hints(cls)
+    hints = _hints(cls)
     names = [f.name for f in dataclasses.fields(cls) if f.init]
     values: dict[str, Any] = {}
     for key, value in table.items():
@@ -130,3 +132,27 @@ def build(cls: type, table: dict[str, Any], where: str, base: Any = None):
         raise ConfigError(f"{where}: {e}") from None
     except (TypeError, ValueError) as e:
         raise ConfigError(f"{where}: {e}") from None
+
+
+def check_fields(obj: Any) -> None:
+    """Checks every field of a config dataclass instance against its annotation.
+
+    Raises:
+        ConfigError: ``<Class>.<field> = <value> is not valid; expected <type>``.
+    """
+    cls = type(obj)
+    hints = _hints(cls)
+    for f in dataclasses.fields(cls):
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value) and isinstance(value, hints[f.name]):
+            continue  # checked when it was built
+        _coerce(hints[f.name], value, f"{cls.__name__}.{f.name}")
+
+
+_HINTS: dict[type, dict[str, Any]] = {}
+
+
+def _hints(cls: type) -> dict[str, Any]:
+    if cls not in _HINTS:
+        _HINTS[cls] = typing.get_type_hints(cls)
+    return _HINTS[cls]
