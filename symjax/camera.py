@@ -32,6 +32,13 @@ class Camera:
     width: int = static_field()
     height: int = static_field()
 
+    def __post_init__(self) -> None:
+        # Static fields are concrete even under jit: a float or bool size is a caller's mistake.
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | np.integer):
+                raise CameraError(f"camera {name} must be a whole number of pixels, got {v!r}")
+
     @classmethod
     def create(cls, K: ArrayLike, T_world_cam: ArrayLike, width: int, height: int) -> Camera:
         """Builds a validated camera from array-likes (float64 numpy, converted lazily by JAX).

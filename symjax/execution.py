@@ -29,7 +29,9 @@ class ExecutionConfig:
             0 = all).
         symmetry_chunk_hypotheses: Planes of one view scored at once (bounds the per-point
             intermediates; 0 = all).
-        poisson_chunk_views: Views solved at once by the batched Poisson solver (0 = all).
+        poisson_chunk_views: Views solved at once by the batched Poisson solver (0 = all); a
+            batch is padded to at least this many views, so that every view is solved at the
+            same vmap width whatever its batch (symmetry_chunk_views likewise).
         simulation_chunk: Candidates per jitted MJX call; larger batches are split.
         simulation_threads: C MuJoCo rollout threads (0 = one per core).
         eval_batch_size: Views per batch through the evaluation's search and Poisson solve.

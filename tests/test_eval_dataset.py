@@ -168,3 +168,49 @@ def test_kth_layout_without_ground_truth(script, tmp_path, capsys):
         assert r["dev_mean_mm"] == "nan" and r["plane_error_deg"] == "nan"
     assert (out / "gallery.png").read_bytes()[:4] == b"\x89PNG"
     assert not (out / "fig10_orientation.png").exists()
+
+
+def test_malformed_view_file_is_recomputed_with_a_warning(script, run4, capsys):
+    out, argv = run4
+    files = sorted((out / "views").glob("*.json"))
+    files[0].write_text("null")
+    files[1].write_text(json.dumps({"view": "x"}))  # parseable, a field missing
+    assert script.main(argv) == 0
+    text = capsys.readouterr().out
+    assert "2 to evaluate" in text and text.count("is malformed") == 2
+    for f in files[:2]:
+        assert json.loads(f.read_text())["view"]  # rewritten whole
+
+
+def test_other_settings_never_overwrite_a_folder(script, run4, capsys):
+    out, argv = run4
+    before = (out / "results.csv").read_bytes()
+    other = [a if a != "4" else "2" for a in argv]  # a smaller subset
+    assert script.main(other) == 2
+    assert "another selection of views" in capsys.readouterr().err
+    assert script.main([*argv, "--symmetry.n-refine", "1"]) == 2
+    assert "other settings" in capsys.readouterr().err
+    assert (out / "results.csv").read_bytes() == before
+
+
+def test_ctrl_c_stops_the_command_promptly(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    exe = Path(sys.executable).with_name("symjax")
+    env = {**os.environ, "SYMJAX_CACHE": str(tmp_path / "cache"), "MPLBACKEND": "Agg"}
+    p = subprocess.Popen(
+        [str(exe), "eval", "--subset", "025_mug", "--out-dir", str(tmp_path / "o"),
+         "--execution.no-progress"],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    time.sleep(4.0)
+    t0 = time.perf_counter()
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err[-2000:]
+    assert time.perf_counter() - t0 < 10.0
+    assert "interrupted" in err and "Traceback" not in err

@@ -110,6 +110,12 @@ class Benchmark(Sequence[View]):
         for i in range(len(self)):
             yield self[i]
 
+    def n_points(self, i: int) -> int:
+        """Observed points of view ``i``, from the index (the view is not loaded)."""
+        if not hasattr(self, "_index"):
+            self._index = json.loads((self.folder / "index.json").read_text())["views"]
+        return int(self._index[self.names[i]]["n_points"])
+
     @property
     def datasets(self) -> list[str]:
         """Data set ids present, in order."""

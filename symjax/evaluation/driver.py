@@ -21,6 +21,7 @@ from symjax.evaluation.config import EvalConfig
 from symjax.evaluation.records import ViewRecord, load_records, rows_of, view_file
 from symjax.evaluation.selection import select_views
 from symjax.evaluation.stages import process_batch
+from symjax.geometry import bucket
 
 __all__ = ["claim_folder", "evaluate", "run_evaluation", "writable_folder"]
 
@@ -79,6 +80,19 @@ def claim_folder(cfg: EvalConfig, names: list[str]) -> None:
     atomic_write_json(path, mine)
 
 
+def _by_bucket(views, todo: list[int]) -> list[int]:
+    """``todo`` ordered by point bucket, so that a batch shares one jitted call.
+
+    A view's numbers do not depend on the rest of its batch, so the order changes no result.
+    """
+
+    def size(i: int) -> int:
+        n = views.n_points(i) if hasattr(views, "n_points") else len(views[i].points)
+        return bucket(n)
+
+    return sorted(todo, key=lambda i: (size(i), i))
+
+
 def evaluate(
     config: EvalConfig, log: Callable[[str], None] = print
 ) -> tuple[list[ViewRecord], dict[str, Any]]:
@@ -97,13 +111,14 @@ def evaluate(
 
     ex = config.execution
     t_start = time.perf_counter()
+    writable_folder(config.out_dir)
     views = select_views(config)
     names = list(views.names)
     select_s = time.perf_counter() - t_start
-    done = (
-        load_records(config.out_dir, names, config.key(), config.methods) if config.resume else {}
-    )
-    todo = [i for i, n in enumerate(names) if n not in done]
+    claim_folder(config, names)
+    key = config.key()
+    done = load_records(config.out_dir, names, key, config.methods, log) if config.resume else {}
+    todo = _by_bucket(views, [i for i, n in enumerate(names) if n not in done])
     log(
         f"{len(names)} views: {len(done)} already done in {config.out_dir}, {len(todo)} to evaluate"
         f" ({', '.join(config.methods)}; batches of {ex.eval_batch_size})"

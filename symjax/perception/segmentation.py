@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from symjax.camera import Camera
-from symjax.errors import EmptyInputError, InvalidInputError, ShapeError
+from symjax.errors import ConfigError, EmptyInputError, InvalidInputError, ShapeError
 from symjax.geometry import pixel_rays
 from symjax.observation import Observation, fill_mask
 from symjax.perception.clusters import cloud_clusters, grid_outliers, image_clusters
@@ -371,7 +371,7 @@ def segment(
 
     config = config or SegmentationConfig()
     if not isinstance(config, SegmentationConfig):
-        raise InvalidInputError(f"config must be a SegmentationConfig, got {type(config).__name__}")
+        raise ConfigError(f"config must be a SegmentationConfig, got {type(config).__name__}")
     if camera is not None and not isinstance(camera, Camera):
         raise InvalidInputError(f"camera must be a symjax.Camera, got {type(camera).__name__}")
     if isinstance(data, DepthFrame):

@@ -71,7 +71,9 @@ def poisson_reconstruct_batch(
     execution: ExecutionConfig | None = None,
     errors: Literal["raise", "keep"] = "raise",
 ) -> list:
-    """Watertight meshes of several oriented clouds, solved in one jitted call.
+    """Watertight meshes of several oriented clouds, one jitted solve per point bucket.
+
+    A view's mesh does not depend on the other views of the batch (bit for bit on the CPU).
 
     Args:
         views: :class:`~symjax.surface.normals.OrientedPoints` or ``(points (N_i, 3), normals
@@ -93,18 +95,23 @@ def poisson_reconstruct_batch(
         raise InvalidInputError("views is empty; expected at least one oriented cloud")
     triples = [_as_triple(v) for v in views]
     out: list = [None] * len(views)
-    packed: dict[int, tuple] = {}
-    n_pad = bucket(max(len(t[0]) for t in triples))
+    # Each view keeps its own point bucket, so its rounding never depends on the batch; views
+    # of one bucket are solved in one call.
+    groups: dict[int, dict[int, tuple]] = {}
     for i, t in enumerate(triples):
         try:
-            packed[i] = pack_views([t], cfg, max(n_pad, len(t[0])))
+            n = bucket(max(len(t[0]), 1))
+            groups.setdefault(n, {})[i] = pack_views([t], cfg, n)
         except SymjaxError as e:
             if errors == "raise":
                 raise
             out[i] = e
-    idx = sorted(packed)
-    if idx:
-        arrays = [jax.numpy.concatenate([packed[i][k] for i in idx]) for k in range(4)]
+    for packed in groups.values():
+        idx = sorted(packed)
+        # Padded to a power of two (copies of the first view): few compiled batch shapes.
+        size = max(2, ex.poisson_chunk_views, 1 << (len(idx) - 1).bit_length())
+        rows = idx + [idx[0]] * (size - len(idx))
+        arrays = [jax.numpy.concatenate([packed[i][k] for i in rows]) for k in range(4)]
         grids = jax.device_get(solve_grids(*arrays, cfg, ex.poisson_chunk_views))
         for j, i in enumerate(idx):
             try:

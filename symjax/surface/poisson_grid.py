@@ -290,8 +290,9 @@ def solve_grids(
     for name, arr in (("normals", normals), ("weights", weights), ("valid", valid)):
         if tuple(np.shape(arr)) != expected[name]:
             raise ShapeError(f"{name} must have shape {expected[name]}, got {np.shape(arr)}")
-    # Never a vmap of width 1: widths >= 2 give every view the same bits whatever its batch.
-    chunk = max(2, b if chunk == 0 else min(chunk, b))
+    # One fixed vmap width (never 1): XLA's rounding can change with the width, so a view's
+    # grid is the same whatever its batch only if every batch runs at the same width.
+    chunk = max(2, b if chunk == 0 else chunk)
     pad = (-b) % chunk
     arrs = [points, jnp.asarray(normals), jnp.asarray(weights), jnp.asarray(valid, bool)]
     if pad:

@@ -95,14 +95,17 @@ def search(
 def _run_group(views: list[ViewArrays], cfg: SymmetryConfig, ex: ExecutionConfig) -> list:
     """Single-view results of views with one image shape, in one jitted call.
 
-    The vmap width never drops to 1 (a batch of one is paired with itself): widths of 2 and more
-    compute every view bit for bit alike, so a view's result does not depend on its batch.
+    Every call runs at one vmap width, the configured chunk (at least 2): XLA's rounding can
+    change with the width, so a fixed width is what makes a view's result independent of its
+    batch. Group sizes are padded to powers of two (copies of the first view).
     """
     n = max(int(v.points.shape[0]) for v in views)
     views = [v if v.points.shape[0] == n else _padded_points(v, n) for v in views]
-    chunk = ex.symmetry_chunk_views if ex.symmetry_chunk_views > 0 else len(views)
-    chunk = max(2, min(chunk, len(views)))
-    padded = views + [views[0]] * ((-len(views)) % chunk)
+    # A fixed width (the configured chunk) compiles once per bucket whatever the group's size.
+    chunk = max(2, ex.symmetry_chunk_views if ex.symmetry_chunk_views > 0 else len(views))
+    # Group sizes padded to powers of two: few compiled shapes per bucket, whatever the batch.
+    size = max(chunk, 1 << (len(views) - 1).bit_length())
+    padded = views + [views[0]] * (size - len(views))
     stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *padded)
     out = jax.device_get(_search_batch_jit(stacked, cfg, chunk, ex.symmetry_chunk_hypotheses))
     return [jax.tree_util.tree_map(lambda x, i=i: x[i], out) for i in range(len(views))]
@@ -123,9 +126,10 @@ def search_batch(
     config: SymmetryConfig | None = None,
     execution: ExecutionConfig | None = None,
 ) -> SymmetryResult:
-    """Searches all hypotheses of all views in one jitted call per image size.
+    """Searches all hypotheses of all views, one jitted call per image size and point bucket.
 
-    Views are padded to a common number of points (:func:`symjax.geometry.bucket`) and scored by
+    Each view is padded to its own point bucket (:func:`symjax.geometry.bucket`); views that
+    share an image size and a bucket are scored together by
     ``lax.map`` over chunks of ``execution.symmetry_chunk_views`` views, each chunk one
     ``vmap``. A view that cannot be searched (NaN points, no spread, no plane found) does not
     stop the batch: ``result.ok[i]`` is False, ``result.errors[i]`` says why, its float fields
@@ -167,10 +171,11 @@ def search_batch(
             "no view of the batch could be searched: "
             + "; ".join(f"view {i}: {e}" for i, e in enumerate(errors))
         )
-    # Views of one image size share a call; results hold no image, so sizes never mix.
-    groups: dict[tuple[int, int], list[int]] = {}
+    # Views of one image size and one point bucket share a call: each view keeps the shapes it
+    # has alone, so float rounding never depends on the rest of the batch.
+    groups: dict[tuple[int, int, int], list[int]] = {}
     for i, v in views.items():
-        groups.setdefault(tuple(v.image.shape[:2]), []).append(i)
+        groups.setdefault((*v.image.shape[:2], int(v.points.shape[0])), []).append(i)
     single: dict[int, SymmetryResult] = {}
     for idx in groups.values():
         for i, r in zip(idx, _run_group([views[i] for i in idx], cfg, ex), strict=True):
@@ -194,20 +199,21 @@ def search_batch(
 
 
 def _fit(res: SymmetryResult | None, template: SymmetryResult, n: int) -> SymmetryResult:
-    """One row of a batched result: point arrays padded to ``n``; a failed view is NaN."""
-
-    def one(x, t):
-        x = (
-            np.full_like(np.asarray(t), np.nan if np.asarray(t).dtype.kind == "f" else 0)
-            if res is None
-            else np.asarray(x)
-        )
-        if x.ndim >= 1 and x.shape[0] == np.shape(template.points)[0] and x.shape[0] != n:
-            pad = np.zeros((n - x.shape[0], *x.shape[1:]), x.dtype)
-            x = np.concatenate([x, pad])
-        return x
-
-    return jax.tree_util.tree_map(one, template if res is None else res, template)
+    """One row of a batched result: point arrays padded to ``n`` rows; a failed view is NaN."""
+    src = template if res is None else res
+    rows = int(np.shape(src.points)[0])
+    point_fields = {"points", "valid", "mirrored", "mirrored_keep", "plausibility"}
+    values = {}
+    for f in dataclasses.fields(src):
+        if f.name == "errors":
+            continue
+        x = np.asarray(getattr(src, f.name))
+        if res is None:
+            x = np.full_like(x, np.nan) if x.dtype.kind == "f" else np.zeros_like(x)
+        if f.name in point_fields and rows < n:
+            x = np.concatenate([x, np.zeros((n - rows, *x.shape[1:]), x.dtype)])
+        values[f.name] = x
+    return SymmetryResult(**values)
 
 
 def complete(

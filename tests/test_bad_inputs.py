@@ -1,0 +1,307 @@
+"""Bad input across every public entry point: the exact SymjaxError subclass, and a message that
+names the offending value and what is expected. Never a raw exception, never a silent result.
+
+Each row is ``(id, call, error, needles)``: ``call(d)`` gets a temporary folder ``d``; every
+needle must appear in the message.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import symjax
+from symjax import configs, decompose, grasp, hands, io, metrics, perception, robots, surface
+from symjax.datasets import benchmark, load_object
+from symjax.datasets.primitives import primitive_view
+from symjax.errors import (
+    CameraError,
+    ConfigError,
+    DegenerateGeometryError,
+    EmptyInputError,
+    FileFormatError,
+    InvalidInputError,
+    MissingFileError,
+    ShapeError,
+    SymjaxError,
+    UnknownNameError,
+)
+from symjax.execution import ExecutionConfig
+from symjax.symmetry import SymmetryConfig, search, search_batch
+
+VIEW, _ = primitive_view("box", math.radians(30), noise=0.001, seed=0)
+CAM = VIEW.camera
+PTS = VIEW.valid_points()
+TABLE = symjax.TablePlane.horizontal()
+K = np.asarray(CAM.K)
+T = np.asarray(CAM.T_world_cam)
+BOX = trimesh.creation.box((0.05, 0.08, 0.12))
+BOX.apply_translation([0.5, 0.0, 0.06])
+SDH = hands.load("sdh")
+
+
+def _cands(**change):
+    c = grasp.generate(BOX, "uji", config=configs.load("ci").candidates).candidates
+    return dataclasses.replace(c, **{k: np.asarray(v) for k, v in change.items()})
+
+
+def _write(d: Path, name: str, text: str | bytes) -> Path:
+    p = d / name
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_bytes(text if isinstance(text, bytes) else text.encode())
+    return p
+
+
+def _ply(n_decl: int, n_rows: int) -> str:
+    rows = "\n".join(f"{i * 0.01} 0 {0.5 + i * 0.001}" for i in range(n_rows))
+    return (
+        f"ply\nformat ascii 1.0\nelement vertex {n_decl}\nproperty float x\nproperty float y\n"
+        f"property float z\nend_header\n{rows}\n"
+    )
+
+
+def _pcd(count_x: int = 1) -> str:
+    rows = "\n".join(" ".join(["0.1"] * (count_x + 2)) for _ in range(20))
+    return (
+        f"VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT {count_x} 1 1\nWIDTH 20\n"
+        f"HEIGHT 1\nPOINTS 20\nDATA ascii\n{rows}\n"
+    )
+
+
+def _crd(rows: list[str], count: int | None = None) -> str:
+    return f"{len(rows) if count is None else count}\n" + "\n".join(rows) + "\n"
+
+
+def _kth(d: Path, scale: float = 1.0, vp_scale: float = 1.0) -> Path:
+    """A small view in the KTH layout (millimetres) from the synthetic box view."""
+    uv, _ = CAM.project(PTS)
+    uv = np.rint(np.asarray(uv)).astype(int)
+    rows = [
+        " ".join(f"{x:.6f}" for x in p * 1000 * scale) + f" {u} {v} 100 100 100"
+        for p, (u, v) in zip(PTS, uv, strict=True)
+    ]
+    _write(d, "db/obj/segment_000.crd", _crd(rows))
+    vp = np.asarray(CAM.position) * 1000 * vp_scale
+    _write(d, "db/obj/viewPoint_000.txt", " ".join(f"{x:.6f}" for x in vp))
+    k = [K[0, 0], 0, K[0, 2], 0, K[1, 1], K[1, 2], 0, 0, 1, 0, 0, 0, 0]
+    nums = k * 2 + [90, 0, 0, 1, 0, 0, 0] + [0] * 9 + [CAM.width, CAM.height] + [0] * 18
+    _write(d, "db/obj/calib.txt", " ".join(str(x) for x in nums))
+    return d / "db" / "obj" / "segment_000.crd"
+
+
+def _mm_view():
+    """The box view with points and camera in millimetres, as if passed as metres."""
+    T2 = T.copy()
+    T2[:3, 3] *= 1000
+    cam = symjax.Camera.create(K, T2, CAM.width, CAM.height)
+    return PTS * 1000, cam
+
+
+def _depth_frame(d: Path, depth, **camera_extra) -> Path:
+    np.save(d / "frame.npy", np.asarray(depth, np.float32))
+    cam = {"width": CAM.width, "height": CAM.height, "K": K.tolist(), "T_world_cam": T.tolist()}
+    cam.update(camera_extra)
+    (d / "frame.json").write_text(json.dumps(cam))
+    return d / "frame.npy"
+
+
+def _turned_camera():
+    """The view's camera at the same place, turned to look away from the object."""
+    T2 = T.copy()
+    T2[:3, :3] = T[:3, :3] @ np.diag([-1.0, 1.0, -1.0])
+    return symjax.Camera.create(K, T2, CAM.width, CAM.height)
+
+
+def _nan_view():
+    bad = dataclasses.replace(VIEW, points=np.asarray(VIEW.points).copy())
+    bad.points[3] = np.nan
+    return bad
+
+
+def _same_point_view():
+    p = np.asarray(VIEW.points).copy()
+    p[:] = p[0]
+    return dataclasses.replace(VIEW, points=p)
+
+
+def _stray(n=400):
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    p = 0.05 * d
+    p[0] = [10.0, 0.0, 0.0]
+    return p, d
+
+
+def _cli(*argv: str, cwd: Path | None = None) -> None:
+    """Runs the symjax command; raises the typed error its stderr names (for the matrix)."""
+    exe = Path(sys.executable).with_name("symjax")
+    r = subprocess.run([str(exe), *argv], cwd=cwd, capture_output=True, text=True,
+                       env={**os.environ, "MPLBACKEND": "Agg"})  # fmt: skip
+    if r.returncode == 0:
+        return
+    assert "Traceback" not in r.stderr, r.stderr[-2000:]
+    flat = " ".join(line.strip(" │╭╰─╮╯") for line in r.stderr.splitlines())
+    raise _CliError(f"exit {r.returncode}: {' '.join(flat.split())}")
+
+
+class _CliError(SymjaxError):
+    """The command failed with a message (exit 2) and no traceback."""
+
+
+# fmt: off
+CASES = [
+    # --- camera and observation --------------------------------------------------------------
+    ("camera-K-shape", lambda d: symjax.Camera.create(np.eye(2), T, 64, 48), ShapeError, ["(3, 3)", "(2, 2)"]),
+    ("camera-nan", lambda d: symjax.Camera.create(K * np.nan, T, 64, 48), CameraError, ["finite", "NaN"]),
+    ("camera-focal", lambda d: symjax.Camera.create(np.diag([-1.0, 1, 1]), T, 64, 48), CameraError, ["fx=-1.0", "> 0"]),
+    ("camera-pose", lambda d: symjax.Camera.create(K, np.diag([1.0, 1, -1, 1]), 64, 48), CameraError, ["orthonormal", "det +1"]),
+    ("camera-width-float", lambda d: symjax.Camera.create(K, T, 64.9, 48), CameraError, ["width", "64.9", "whole number"]),
+    ("camera-width-bool", lambda d: symjax.Camera.create(K, T, True, 48), CameraError, ["width", "True"]),
+    ("camera-direct-float", lambda d: symjax.Camera(K=K, T_world_cam=T, width=64.9, height=48), CameraError, ["width", "64.9", "whole number"]),
+    ("camera-size", lambda d: symjax.Camera.create(K, T, 0, 48), CameraError, ["0x48", "positive"]),
+    ("obs-K-not-camera", lambda d: symjax.Observation.from_points(PTS, K, TABLE), InvalidInputError, ["symjax.Camera", "ndarray"]),
+    ("obs-table-type", lambda d: symjax.Observation.create(PTS, CAM, 0.0, VIEW.mask, VIEW.depth), InvalidInputError, ["TablePlane", "float"]),
+    ("obs-shape", lambda d: symjax.Observation.from_points(PTS[:, :2], CAM, TABLE), ShapeError, ["(N, 3)", "2)"]),
+    ("obs-empty", lambda d: symjax.Observation.from_points(np.zeros((0, 3)), CAM, TABLE), EmptyInputError, ["empty", "at least 10"]),
+    ("obs-all-nan", lambda d: symjax.Observation.from_points(np.full((50, 3), np.nan), CAM, TABLE), EmptyInputError, ["no finite points", "50"]),
+    ("obs-millimetres", lambda d: symjax.Observation.from_points(*_mm_view(), TABLE), InvalidInputError, ["m across", "millimetres", "max_extent"]),
+    ("obs-one-point", lambda d: symjax.Observation.from_points(np.repeat(PTS[:1], 50, 0), CAM, TABLE), DegenerateGeometryError, ["0 mm across", "min_extent"]),
+    ("obs-far", lambda d: symjax.Observation.from_points(PTS, CAM, TABLE, limits=symjax.SceneLimits(max_distance=0.3)), InvalidInputError, ["from the camera", "max_distance"]),
+    ("obs-behind", lambda d: symjax.Observation.from_points(PTS, _turned_camera(), TABLE), CameraError, ["behind the camera", "T_world_cam"]),
+    ("obs-mask-shape", lambda d: symjax.Observation.create(PTS, CAM, TABLE, np.ones((3, 3), bool), VIEW.depth), ShapeError, ["mask", "(3, 3)"]),
+    ("obs-depth-nan", lambda d: symjax.Observation.create(PTS, CAM, TABLE, VIEW.mask, VIEW.depth * np.nan), InvalidInputError, ["depth image", "finite"]),
+    ("limits-order", lambda d: symjax.SceneLimits(min_extent=1.0, max_extent=0.5), ConfigError, ["min_extent", "1.0", "0.5"]),
+    # --- configs ---------------------------------------------------------------------------
+    ("sym-n-angles-str", lambda d: SymmetryConfig(n_angles="7"), ConfigError, ["n_angles = '7'", "an integer"]),
+    ("sym-w-outside-nan", lambda d: SymmetryConfig(w_outside=math.nan), ConfigError, ["w_outside = nan", "finite"]),
+    ("sym-plaus-nan", lambda d: SymmetryConfig(plausibility_px=math.nan), ConfigError, ["plausibility_px", "finite"]),
+    ("sym-init", lambda d: SymmetryConfig(init="pca"), ConfigError, ["init = 'pca'", "'eigen'"]),
+    ("sym-shift-order", lambda d: SymmetryConfig(shift_min=0.6), ConfigError, ["shift_min 0.6", "shift_max 0.5"]),
+    ("sym-w-inside-neg", lambda d: SymmetryConfig(w_inside=-1.0), ConfigError, ["w_inside", ">= 0", "-1.0"]),
+    ("poisson-depth", lambda d: surface.PoissonConfig(depth=9), ConfigError, ["depth", "[2, 8]", "9"]),
+    ("poisson-depth-float", lambda d: surface.PoissonConfig(depth=7.0), ConfigError, ["depth = 7.0", "an integer"]),
+    ("normals-k", lambda d: surface.NormalsConfig(k=2), ConfigError, ["k must be", "3", "2"]),
+    ("delaunay-edge", lambda d: surface.DelaunayConfig(edge_factor=math.inf), ConfigError, ["edge_factor = inf", "finite"]),
+    ("candidates-distances", lambda d: grasp.CandidateConfig(distances=(-0.1,)), ConfigError, ["distances", "-0.1", "[0, 1]"]),
+    ("candidates-n-rays", lambda d: grasp.CandidateConfig(n_rays=0), ConfigError, ["n_rays", ">= 1"]),
+    ("sim-timestep", lambda d: grasp.SimulationConfig(timestep=-1.0), ConfigError, ["timestep", "positive", "-1.0"]),
+    ("sim-cone", lambda d: grasp.SimulationConfig(cone="square"), ConfigError, ["cone", "'square'", "'pyramidal'"]),
+    ("decompose-threshold", lambda d: decompose.DecomposeConfig(threshold=2.0), ConfigError, ["threshold", "[0.01, 1]", "2.0"]),
+    ("execution-chunk", lambda d: ExecutionConfig(simulation_chunk=0), ConfigError, ["simulation_chunk", ">= 1", "0"]),
+    ("execution-bool", lambda d: ExecutionConfig(eval_batch_size=True), ConfigError, ["eval_batch_size", "True"]),
+    ("segmentation-seed", lambda d: perception.SegmentationConfig(seed=1.5), ConfigError, ["seed = 1.5", "an integer"]),
+    ("platform-hand", lambda d: robots.PlatformConfig(robot="uji", hand="sdh"), ConfigError, ["hand = 'sdh'", "'barrett'"]),
+    ("eval-methods", lambda d: symjax.evaluation.EvalConfig(methods=("Del", "Foo")), UnknownNameError, ["'Foo'", "Mir7"]),
+    ("eval-subset", lambda d: symjax.evaluation.EvalConfig(subset=("xdeg",)), ConfigError, ["'xdeg'", "45deg"]),
+    ("preset-unknown", lambda d: configs.load("papr"), UnknownNameError, ["'papr'", "paper"]),
+    ("preset-key", lambda d: configs.load("paper", {"symmetry.n_angle": 3}), ConfigError, ["'n_angle'", "n_angles"]),
+    ("preset-type", lambda d: configs.load("paper", {"symmetry.n_angles": "x"}), ConfigError, ["n_angles = 'x'", "an integer"]),
+    ("preset-file", lambda d: configs.load(d / "none.toml"), MissingFileError, ["none.toml", "does not exist"]),
+    ("preset-toml", lambda d: configs.load(_write(d, "bad.toml", "[x\n")), FileFormatError, ["bad.toml", "not valid TOML"]),
+    # --- symmetry ----------------------------------------------------------------------------
+    ("search-type", lambda d: search(PTS), InvalidInputError, ["symjax.Observation", "ndarray"]),
+    ("search-config-type", lambda d: search(VIEW, {"n_angles": 7}), ConfigError, ["config", "SymmetryConfig", "dict"]),
+    ("search-nan-point", lambda d: search(_nan_view()), InvalidInputError, ["NaN or inf", "Observation.create"]),
+    ("search-one-point", lambda d: search(_same_point_view()), DegenerateGeometryError, ["0 mm on the table", "0.1 mm"]),
+    ("search-batch-empty", lambda d: search_batch([]), InvalidInputError, ["no observations"]),
+    ("search-batch-single", lambda d: search_batch(VIEW), InvalidInputError, ["sequence", "search()"]),
+    ("search-batch-item", lambda d: search_batch([VIEW, PTS]), InvalidInputError, ["item 1", "ndarray"]),
+    ("search-batch-all-bad", lambda d: search_batch([_nan_view(), _same_point_view()]), InvalidInputError, ["view 0", "view 1", "could be searched"]),
+    ("batch-index-failed", lambda d: search_batch([VIEW, _nan_view()])[1], InvalidInputError, ["view 1 of the batch", "NaN"]),
+    ("complete-bad-view", lambda d: symjax.complete([VIEW, _same_point_view()]), DegenerateGeometryError, ["view 1", "0 mm"]),
+    ("search-execution-type", lambda d: search(VIEW, None, {"chunk": 2}), ConfigError, ["execution", "ExecutionConfig"]),
+    # --- surface and metrics -----------------------------------------------------------------
+    ("poisson-shape", lambda d: surface.poisson_reconstruct(PTS, PTS[:, :2]), ShapeError, ["normals", "shape"]),
+    ("poisson-zero-normals", lambda d: surface.poisson_reconstruct(PTS, np.zeros_like(PTS)), DegenerateGeometryError, ["zero length", "unit normals"]),
+    ("poisson-few", lambda d: surface.poisson_reconstruct(PTS[:5], PTS[:5]), EmptyInputError, ["5", "20"]),
+    ("poisson-stray-point", lambda d: surface.poisson_reconstruct(*_stray()), DegenerateGeometryError, ["far from the rest", "outlier_mask"]),
+    ("poisson-batch-empty", lambda d: surface.poisson_reconstruct_batch([]), InvalidInputError, ["empty", "oriented cloud"]),
+    ("poisson-batch-item", lambda d: surface.poisson_reconstruct_batch([PTS]), InvalidInputError, ["OrientedPoints", "ndarray"]),
+    ("poisson-batch-errors", lambda d: surface.poisson_reconstruct_batch([(PTS, PTS)], errors="ignore"), InvalidInputError, ["'ignore'", "'keep'"]),
+    ("normals-shape", lambda d: surface.estimate_normals(PTS[:, :1]), ShapeError, ["(N, 3)"]),
+    ("delaunay-few", lambda d: surface.delaunay_mesh(PTS[:5], CAM), EmptyInputError, ["5", "20"]),
+    ("deviation-type", lambda d: metrics.mesh_deviation(BOX, "box.ply"), InvalidInputError, ["trimesh.Trimesh", "str"]),
+    ("deviation-faces", lambda d: metrics.mesh_deviation(BOX, (BOX.vertices, BOX.faces + 100)), ShapeError, ["face indices", "[0, 8)"]),
+    ("surface-distance-shape", lambda d: metrics.surface_distance(PTS[:, :2], BOX), ShapeError, ["(N, 3)", "2)"]),
+    ("plane-error-zero", lambda d: metrics.plane_error([0, 0, 0], 0.0, planes=[([1, 0, 0], 0.0)]), InvalidInputError, ["non-zero", "[0.0, 0.0, 0.0]"]),
+    ("plane-error-shape", lambda d: metrics.plane_error([1, 0], 0.0), ShapeError, ["(3,)", "(2,)"]),
+    # --- files -------------------------------------------------------------------------------
+    ("ply-truncated", lambda d: io.read_point_cloud(_write(d, "t.ply", _ply(200, 96))), FileFormatError, ["t.ply", "200 vertex", "96", "truncated"]),
+    ("ply-missing", lambda d: io.read_point_cloud(d / "none.ply"), MissingFileError, ["none.ply", "does not exist"]),
+    ("pcd-count", lambda d: io.read_point_cloud(_write(d, "c.pcd", _pcd(2))), FileFormatError, ["c.pcd", "'x'", "COUNT 2", "COUNT 1"]),
+    ("cloud-format", lambda d: io.read_point_cloud(_write(d, "c.xyz", "1 2 3\n")), FileFormatError, ["c.xyz", ".ply"]),
+    ("crd-mixed-rows", lambda d: io.read_kth_segment(_write(d, "m.crd", _crd(["1 2 3 4 5 6 7 8", "1 2 3 4 5 6 7", "1 2 3 4 5 6 7 8 9"]))), FileFormatError, ["m.crd", "line 3", "7 numbers", "8"]),
+    ("crd-count", lambda d: io.read_kth_segment(_write(d, "n.crd", _crd(["1 2 3 4 5 6 7 8"], count=5))), FileFormatError, ["n.crd", "5 points", "truncated"]),
+    ("crd-metres", lambda d: io.load_kth_view(_kth(d, scale=0.001, vp_scale=0.001)), FileFormatError, ["segment_000.crd", "metres", "millimetres"]),
+    ("kth-dir-is-file", lambda d: io.load_kth_directory(_write(d, "f.txt", "x")), InvalidInputError, ["f.txt", "is a file", "folder"]),
+    ("kth-dir-missing", lambda d: io.load_kth_directory(d / "nope"), MissingFileError, ["nope", "does not exist"]),
+    ("camera-json-bool", lambda d: io.load_depth_frame(_depth_frame(d, VIEW.depth, width=True)), FileFormatError, ["'width'", "True", "a number"]),
+    ("camera-json-missing", lambda d: io.load_camera_json(_write(d, "c.json", json.dumps({"width": 64}))), FileFormatError, ["c.json", "'height'"]),
+    ("depth-mm-float", lambda d: io.read_depth_image(_depth_frame(d, VIEW.depth * 1000.0)), FileFormatError, ["median depth", "divide it by 1000", "integer depth only"]),
+    ("depth-negative", lambda d: io.read_depth_image(_depth_frame(d, -VIEW.depth - 1)), FileFormatError, ["negative", ">= 0"]),
+    ("mesh-missing", lambda d: io.read_mesh(d / "none.obj"), MissingFileError, ["none.obj"]),
+    # --- perception ------------------------------------------------------------------------
+    ("segment-no-camera", lambda d: perception.segment(VIEW.depth), InvalidInputError, ["camera"]),
+    ("segment-config", lambda d: perception.segment(PTS, config={"seed": 1}), ConfigError, ["SegmentationConfig", "dict"]),
+    # --- grasp, hands, robots, decomposition -------------------------------------------------
+    ("hand-unknown", lambda d: hands.load("shadow"), UnknownNameError, ["'shadow'", "barrett", "sdh"]),
+    ("hand-type", lambda d: hands.as_hand(3), InvalidInputError, ["Hand", "int"]),
+    ("robot-unknown", lambda d: robots.load("pr2"), UnknownNameError, ["'pr2'", "kth", "uji"]),
+    ("generate-method", lambda d: grasp.generate(BOX, "gpd"), UnknownNameError, ["'gpd'", "kth", "openrave"]),
+    ("generate-hand-name", lambda d: grasp.generate(BOX, "uji", hand="shadow"), UnknownNameError, ["'shadow'", "sdh"]),
+    ("generate-mesh-type", lambda d: grasp.generate("box", "uji"), InvalidInputError, ["mesh", "trimesh.Trimesh", "str"]),
+    ("generate-mesh-nan", lambda d: grasp.generate((BOX.vertices * np.nan, BOX.faces), "uji"), DegenerateGeometryError, ["NaN or inf"]),
+    ("generate-float-faces", lambda d: grasp.generate((BOX.vertices, BOX.faces * 1.0), "uji"), ShapeError, ["integer", "float64"]),
+    ("generate-grasp-points", lambda d: grasp.generate(BOX, "uji", grasp_points=np.zeros((2, 3))), InvalidInputError, ["grasp_points", "'kth'"]),
+    ("generate-preshape", lambda d: grasp.generate(BOX, "uji", config=grasp.CandidateConfig(preshapes=(9,)), hand=SDH), InvalidInputError, ["9", "expected 0 to"]),
+    ("simulate-hand-unknown", lambda d: grasp.simulate(BOX, _cands(), "shadow"), UnknownNameError, ["'shadow'", "sdh"]),
+    ("simulate-backend", lambda d: grasp.simulate(BOX, _cands(), SDH, backend="physx"), UnknownNameError, ["'physx'", "mjx", "mujoco"]),
+    ("simulate-candidates-type", lambda d: grasp.simulate(BOX, np.zeros((3, 3)), SDH), InvalidInputError, ["Candidates", "ndarray"]),
+    ("simulate-approach-length", lambda d: grasp.simulate(BOX, _cands(approach=_cands().approach * 5), SDH), InvalidInputError, ["not unit length", "5"]),
+    ("simulate-approach-zero", lambda d: grasp.simulate(BOX, _cands(approach=_cands().approach * 0), SDH), InvalidInputError, ["not unit length", "0"]),
+    ("simulate-nan", lambda d: grasp.simulate(BOX, _cands(point=_cands().point * np.nan), SDH), InvalidInputError, ["NaN or inf"]),
+    ("simulate-preshape", lambda d: grasp.simulate(BOX, _cands(preshape=_cands().preshape + 7), SDH), InvalidInputError, ["pre-shape", "expected 0 to", "pinch"]),
+    ("plan-mesh-type", lambda d: grasp.plan(42, SDH), InvalidInputError, ["mesh", "int"]),
+    ("inside-mesh-type", lambda d: grasp.inside_mesh(PTS, "mesh"), InvalidInputError, ["mesh", "str"]),
+    ("cast-rays-shape", lambda d: grasp.cast_rays(PTS, PTS[:3], BOX), ShapeError, ["origins", "directions", "must match"]),
+    ("decompose-faces", lambda d: decompose.decompose((BOX.vertices, BOX.faces + 99), use_cache=False), ShapeError, ["face indices", "[0, 8)"]),
+    # --- data sets -------------------------------------------------------------------------
+    ("benchmark-unknown", lambda d: benchmark("no_such_object"), UnknownNameError, ["no_such_object"]),
+    ("load-object-missing", lambda d: load_object(d / "none.obj"), MissingFileError, ["none.obj"]),
+    # --- command line ------------------------------------------------------------------------
+    ("cli-unknown-command", lambda d: _cli("evaluate"), _CliError, ["unknown command 'evaluate'", "eval"]),
+    ("cli-preset", lambda d: _cli("eval", "--config", "papr"), _CliError, ["exit 2", "unknown preset 'papr'", "paper"]),
+    ("cli-int-flag", lambda d: _cli("eval", "--n-samples", "lots"), _CliError, ["exit 2", "lots", "int"]),
+    ("cli-range", lambda d: _cli("eval", "--n-samples", "3"), _CliError, ["exit 2", "n_samples", ">= 100", "got 3"]),
+    ("cli-nan-weight", lambda d: _cli("eval", "--symmetry.w-outside", "nan"), _CliError, ["exit 2", "w_outside", "finite"]),
+    ("cli-out-under-file", lambda d: _cli("eval", "--out-dir", str(_write(d, "f", "x") / "sub")), _CliError, ["exit 2", "cannot write", "output folder"]),
+    ("cli-data-is-file", lambda d: _cli("eval", "--data", str(_write(d, "f.crd", "1")), "--out-dir", str(d / "o")), _CliError, ["exit 2", "is a file", "folder"]),
+    ("cli-demo-out", lambda d: _cli("demo", "--out-dir", str(_write(d, "g", "x") / "sub")), _CliError, ["exit 2", "cannot write"]),
+]
+# fmt: on
+
+
+def test_the_matrix_is_large_enough():
+    assert len(CASES) >= 80
+    assert len({c[0] for c in CASES}) == len(CASES)
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_bad_input(case, tmp_path):
+    _, call, error, needles = case
+    with pytest.raises(SymjaxError) as info:
+        call(tmp_path)
+    assert type(info.value) is error, f"{type(info.value).__name__}: {info.value}"
+    message = str(info.value)
+    for needle in needles:
+        assert needle in message, (needle, message)
