@@ -22,7 +22,7 @@ from symjax.errors import (
     config_or_default,
 )
 from symjax.execution import ExecutionConfig
-from symjax.geometry import bucket
+from symjax.geometry import bucket, reflect
 from symjax.observation import Observation
 from symjax.symmetry.config import SymmetryConfig
 from symjax.symmetry.hypotheses import search_view
@@ -211,7 +211,13 @@ def _fit(res: SymmetryResult | None, template: SymmetryResult, n: int) -> Symmet
         if res is None:
             x = np.full_like(x, np.nan) if x.dtype.kind == "f" else np.zeros_like(x)
         if f.name in point_fields and rows < n:
-            x = np.concatenate([x, np.zeros((n - rows, *x.shape[1:]), x.dtype)])
+            pad = np.zeros((n - rows, *x.shape[1:]), x.dtype)
+            if f.name == "mirrored":  # padding points sit at the origin; keep mirrored = reflected
+                normal = np.asarray(src.normal, x.dtype)
+                pad = np.asarray(reflect(pad, normal, np.asarray(src.offset, x.dtype)), x.dtype)
+                if res is None:
+                    pad[:] = np.nan
+            x = np.concatenate([x, pad])
         values[f.name] = x
     return SymmetryResult(**values)
 
