@@ -22,7 +22,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from symjax import resources
+from symjax import _interrupt, resources
 from symjax._atomic import atomic_write_bytes, atomic_write_json
 from symjax.datasets.catalogue import DATASET_IDS, OBJECTS_VERSION
 from symjax.datasets.objects import ObjectModel, load_dataset_object
@@ -61,6 +61,7 @@ def _generate_dataset(
     obj = load_dataset_object(dataset, cache_dir=root)
     out = []
     for o in orientations:
+        _interrupt.check()  # a Ctrl-C that JAX's GC hook swallowed still stops here
         view = render_view(obj, o, seed, config)
         atomic_write_bytes(Path(folder) / view_file_name(view.name), encode_view(view))
         out.append((view.name, len(view.points)))
@@ -198,6 +199,7 @@ def benchmark(
             pool = cf.ProcessPoolExecutor(n_workers, mp_context=ctx)
             try:
                 for res in pool.map(_generate_dataset_star, jobs):
+                    _interrupt.check()
                     results += res
             except BaseException:
                 # Ctrl-C or a failed job: stop now rather than wait for every queued dataset.

@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 
+from symjax import _interrupt
 from symjax.errors import SymjaxError
 from symjax.evaluation.config import POISSON_DEPTHS, EvalConfig
 from symjax.evaluation.records import MeshResult, PlaneResult, ViewRecord
@@ -141,6 +142,7 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
         jax.block_until_ready([r.normal for r in results if r is not None])
         share = (time.perf_counter() - t0) / n
         for i in range(n):
+            _interrupt.check()
             timings[i]["symmetry"] = share
             if results[i] is None:
                 op_errors[i] = "symmetry search failed"
@@ -164,6 +166,7 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
     if "Del" in config.methods:
         built["Del"] = [None] * n
         for i, v in enumerate(views):
+            _interrupt.check()
             t1 = time.perf_counter()
             try:
                 built["Del"][i] = delaunay_mesh(v.points, v.camera, config.delaunay)
@@ -174,6 +177,7 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
     records = []
     key = config.key()
     for i, v in enumerate(views):
+        _interrupt.check()
         per_method: list[MeshResult] = []
         for m in config.methods:
             mesh = built[m][i]
