@@ -93,32 +93,19 @@ def search(
 
 
 def _run_group(views: list[ViewArrays], cfg: SymmetryConfig, ex: ExecutionConfig) -> list:
-    """Single-view results of views with one image shape, in one jitted call.
+    """Single-view results of views with one image shape and one point bucket, in one call.
 
     Every call runs at one vmap width, the configured chunk (at least 2): XLA's rounding can
     change with the width, so a fixed width is what makes a view's result independent of its
-    batch. Group sizes are padded to powers of two (copies of the first view).
+    batch, and it compiles once per bucket. Group sizes are padded to powers of two (copies of
+    the first view) so that few batch shapes compile.
     """
-    n = max(int(v.points.shape[0]) for v in views)
-    views = [v if v.points.shape[0] == n else _padded_points(v, n) for v in views]
-    # A fixed width (the configured chunk) compiles once per bucket whatever the group's size.
     chunk = max(2, ex.symmetry_chunk_views if ex.symmetry_chunk_views > 0 else len(views))
-    # Group sizes padded to powers of two: few compiled shapes per bucket, whatever the batch.
     size = max(chunk, 1 << (len(views) - 1).bit_length())
     padded = views + [views[0]] * (size - len(views))
     stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *padded)
     out = jax.device_get(_search_batch_jit(stacked, cfg, chunk, ex.symmetry_chunk_hypotheses))
     return [jax.tree_util.tree_map(lambda x, i=i: x[i], out) for i in range(len(views))]
-
-
-def _padded_points(v: ViewArrays, n: int) -> ViewArrays:
-    m = int(v.points.shape[0])
-    pad = n - m
-    return dataclasses.replace(
-        v,
-        points=jnp.concatenate([v.points, jnp.zeros((pad, 3), v.points.dtype)]),
-        valid=jnp.concatenate([v.valid, jnp.zeros(pad, bool)]),
-    )
 
 
 def search_batch(
