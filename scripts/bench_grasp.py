@@ -36,7 +36,6 @@ import trimesh
 
 from symjax import grasp, hands
 from symjax._atomic import atomic_write_json
-
 from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.decompose import DecomposeConfig, decompose
 from symjax.execution import ExecutionConfig

@@ -47,6 +47,7 @@ _SUBPACKAGES = (
     "hands",
     "io",
     "metrics",
+    "motion",
     "perception",
     "resources",
     "robots",

@@ -19,6 +19,7 @@ from symjax.array_types import ArrayLike, MeshLike
 from symjax.errors import DegenerateGeometryError, EmptyInputError, InvalidInputError, ShapeError
 
 __all__ = [
+    "as_pose",
     "as_trimesh",
     "backproject",
     "bucket",
@@ -31,6 +32,7 @@ __all__ = [
     "rot_z",
     "rot_zyx",
     "rotation_angle",
+    "rotation_angle_np",
 ]
 
 
@@ -227,3 +229,38 @@ def as_trimesh(mesh: MeshLike, what: str = "mesh"):
         return mesh
     v, f = mesh_arrays(mesh, what)
     return trimesh.Trimesh(v, f, process=False)
+
+
+def as_pose(pose: ArrayLike, what: str = "pose") -> tuple[np.ndarray, np.ndarray]:
+    """``(position (3,), rotation (3, 3))`` of a rigid pose, float64.
+
+    Args:
+        pose: A (4, 4) homogeneous matrix, or ``(x, y, z, qw, qx, qy, qz)`` (a unit
+            quaternion, MuJoCo's order), metres.
+        what: The argument's name, for the messages.
+
+    Raises:
+        ShapeError: Neither shape.
+        InvalidInputError: NaN or inf, a rotation that is not orthonormal or a zero quaternion.
+    """
+    a = np.asarray(pose, np.float64)
+    if not np.all(np.isfinite(a)):
+        raise InvalidInputError(f"{what} contains NaN or inf")
+    if a.shape == (4, 4):
+        R, p = a[:3, :3], a[:3, 3]
+        if np.abs(R @ R.T - np.eye(3)).max() > 1e-5 or np.linalg.det(R) < 0:
+            raise InvalidInputError(f"{what}: the upper-left 3 x 3 block is not a rotation")
+        return p.copy(), R.copy()
+    if a.shape == (7,):
+        q = a[3:]
+        n = np.linalg.norm(q)
+        if n < 1e-9:
+            raise InvalidInputError(f"{what}: the quaternion (qw, qx, qy, qz) is zero")
+        return a[:3].copy(), np.asarray(quat_to_matrix(q / n), np.float64)
+    raise ShapeError(f"{what} must be a (4, 4) matrix or (x, y, z, qw, qx, qy, qz), got {a.shape}")
+
+
+def rotation_angle_np(Ra: ArrayLike, Rb: ArrayLike) -> float:
+    """Angle (radians) of the rotation between two (3, 3) rotations, numpy float64."""
+    c = (np.trace(np.asarray(Ra, np.float64).T @ np.asarray(Rb, np.float64)) - 1.0) / 2.0
+    return float(np.arccos(np.clip(c, -1.0, 1.0)))

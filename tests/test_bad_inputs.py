@@ -20,7 +20,18 @@ import pytest
 import trimesh
 
 import symjax
-from symjax import configs, decompose, grasp, hands, io, metrics, perception, robots, surface
+from symjax import (
+    configs,
+    decompose,
+    grasp,
+    hands,
+    io,
+    metrics,
+    motion,
+    perception,
+    robots,
+    surface,
+)
 from symjax.datasets import benchmark, load_object
 from symjax.datasets.primitives import primitive_view
 from symjax.errors import (
@@ -159,6 +170,38 @@ class _CliError(SymjaxError):
 
 
 # fmt: off
+
+def _hulls():
+    b = trimesh.creation.box((0.05, 0.05, 0.1))
+    b.apply_translation((0.7, 0.0, 0.8))
+    return [(np.asarray(b.vertices), np.asarray(b.faces))]
+
+
+def _grasp():
+    R = np.diag([1.0, -1.0, -1.0])
+    return motion.GraspPose((np.array([0.7, 0, 0.95]), R), (np.array([0.7, 0, 0.88]), R), 1)
+
+
+def _far_grasp():
+    R = np.diag([1.0, -1.0, -1.0])
+    return motion.GraspPose((np.array([3.0, 0, 0.95]), R), (np.array([3.0, 0, 0.88]), R), 1)
+
+
+def _nan_grasp():
+    g = _grasp()
+    return motion.GraspPose((np.full(3, np.nan), g.pregrasp[1]), g.grasp, 1)
+
+
+def _blocked_scene():
+    """A block around the UJI hand at home."""
+    scene = motion.PlanningScene("uji")
+    p, _ = scene.tcp_pose(scene.full_q(scene.robot.home))
+    b = trimesh.creation.box((0.2, 0.2, 0.2))
+    b.apply_translation(p)
+    scene.add_object("block", [(np.asarray(b.vertices), np.asarray(b.faces))])
+    return scene
+
+
 CASES = [
     # --- camera and observation --------------------------------------------------------------
     ("camera-K-shape", lambda d: symjax.Camera.create(np.eye(2), T, 64, 48), ShapeError, ["(3, 3)", "(2, 2)"]),
@@ -262,6 +305,25 @@ CASES = [
     ("hand-unknown", lambda d: hands.load("shadow"), UnknownNameError, ["'shadow'", "barrett", "sdh"]),
     ("hand-type", lambda d: hands.as_hand(3), InvalidInputError, ["Hand", "int"]),
     ("robot-unknown", lambda d: robots.load("pr2"), UnknownNameError, ["'pr2'", "kth", "uji"]),
+    ("motion-robot-unknown", lambda d: motion.PlanningScene("pr2"), UnknownNameError, ["'pr2'", "kth", "uji"]),
+    ("motion-target-missing", lambda d: motion.PlanningScene("kth", {"a": _hulls()}, target="b"), UnknownNameError, ["target object", "'b'", "a"]),
+    ("motion-object-duplicate", lambda d: motion.PlanningScene("kth", {"a": _hulls()}).add_object("a", _hulls()), InvalidInputError, ["'a'", "already"]),
+    ("motion-object-empty", lambda d: motion.PlanningScene("kth").add_object("a", []), EmptyInputError, ["hulls"]),
+    ("motion-object-nan", lambda d: motion.PlanningScene("kth").add_object("a", [(np.full((4, 3), np.nan), np.zeros((4, 3), int))]), InvalidInputError, ["NaN"]),
+    ("motion-object-pose-shape", lambda d: motion.PlanningScene("kth").add_object("a", _hulls(), np.eye(3)), ShapeError, ["(4, 4)", "(3, 3)"]),
+    ("motion-move-unknown", lambda d: motion.PlanningScene("kth").move_object("z", np.eye(4)), UnknownNameError, ["'z'"]),
+    ("motion-pose-nan", lambda d: motion.GraspPose.from_poses(np.full((4, 4), np.nan), np.eye(4)), InvalidInputError, ["pregrasp", "NaN"]),
+    ("motion-pose-not-rotation", lambda d: motion.GraspPose.from_poses(np.eye(4), np.diag([2.0, 1, 1, 1])), InvalidInputError, ["grasp", "rotation"]),
+    ("motion-grasp-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _nan_grasp()), InvalidInputError, ["NaN", "pregrasp"]),
+    ("motion-start-shape", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.zeros(3)), ShapeError, ["(7,)", "(3,)"]),
+    ("motion-start-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.full(7, np.nan)), InvalidInputError, ["NaN"]),
+    ("motion-start-in-collision", lambda d: motion.plan_arm(_blocked_scene(), _grasp()), motion.StartInCollisionError, ["start configuration", "obj/block"]),
+    ("motion-grasp-type", lambda d: motion.plan_arm_batch(motion.PlanningScene("uji"), [3]), InvalidInputError, ["GraspPose", "int"]),
+    ("motion-grasp-source", lambda d: motion.grasp_poses("plan"), InvalidInputError, ["GraspPlan", "str"]),
+    ("motion-config-range", lambda d: motion.MotionConfig(velocity_scale=1.5), ConfigError, ["velocity_scale", "(0, 1]"]),
+    ("motion-config-type", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), config={"a": 1}), ConfigError, ["MotionConfig", "dict"]),
+    ("motion-replay-failed", lambda d: motion.replay(motion.plan_arm(motion.PlanningScene("uji"), _far_grasp()), motion.PlanningScene("uji")), InvalidInputError, ["'ok'"]),
+    ("motion-segment-unknown", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp()).segment("dance"), UnknownNameError, ["'dance'", "approach"]),
     ("generate-method", lambda d: grasp.generate(BOX, "gpd"), UnknownNameError, ["'gpd'", "kth", "openrave"]),
     ("generate-hand-name", lambda d: grasp.generate(BOX, "uji", hand="shadow"), UnknownNameError, ["'shadow'", "sdh"]),
     ("generate-mesh-type", lambda d: grasp.generate("box", "uji"), InvalidInputError, ["mesh", "trimesh.Trimesh", "str"]),

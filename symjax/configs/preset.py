@@ -3,7 +3,8 @@ the checkout, packaged as ``symjax/presets``).
 
 A preset file has one table per concept (``[symmetry]``, ``[normals]``, ``[poisson]``,
 ``[delaunay]``, ``[segmentation]``, ``[decompose]``, ``[candidates]``, ``[simulation]``,
-``[platform]``, ``[camera]``, ``[execution]``, ``[evaluation]``), each holding only the fields it
+``[motion]``, ``[platform]``, ``[camera]``, ``[execution]``, ``[evaluation]``), each holding only
+the fields it
 changes from the defaults next to the code. ``extends = "name"`` starts from another preset. Job
 configs that need several concepts (:class:`~symjax.evaluation.EvalConfig`) are composed from the
 tables, so each value lives in one place.
@@ -24,6 +25,7 @@ from symjax.evaluation.config import EvalConfig
 from symjax.execution import ExecutionConfig
 from symjax.grasp.config import CandidateConfig
 from symjax.grasp.sim_config import SimulationConfig
+from symjax.motion.config import MotionConfig
 from symjax.perception.config import SegmentationConfig
 from symjax.resources import preset_dir
 from symjax.robots.platform import PlatformConfig
@@ -45,6 +47,7 @@ SECTIONS: dict[str, type] = {
     "decompose": DecomposeConfig,
     "candidates": CandidateConfig,
     "simulation": SimulationConfig,
+    "motion": MotionConfig,
     "execution": ExecutionConfig,
 }
 
@@ -69,6 +72,7 @@ class Preset:
         decompose: coacd convex decomposition.
         candidates: Grasp candidate generators.
         simulation: Grasp rollouts.
+        motion: Arm motion planning (IK, approach, transit, timing).
         execution: Batch and chunk sizes (speed only).
         evaluation: The 128-view evaluation, composed from the tables above.
     """
@@ -85,6 +89,7 @@ class Preset:
     decompose: DecomposeConfig
     candidates: CandidateConfig
     simulation: SimulationConfig
+    motion: MotionConfig
     execution: ExecutionConfig
     evaluation: EvalConfig
 

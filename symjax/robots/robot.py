@@ -47,6 +47,9 @@ class _RobotInfo:
     arm_joints: tuple[str, ...]
     arm_base: str
     home: tuple[float, ...]
+    velocity_limits: tuple[float, ...]
+    acceleration_limits: tuple[float, ...]
+    dropoff: tuple[float, float, float]
 
 
 _INFO = {
@@ -56,12 +59,22 @@ _INFO = {
         ("a1", "a2", "a3", "a4", "a5", "a6"),
         "kuka_base",
         (0.0, 0.345, -0.312, 0.0, 1.538, -1.569),
+        # KR 6 R900 sixx data sheet: 360, 300, 360, 381, 388, 615 deg/s. Accelerations are not
+        # published; chosen (about 1 s to full speed on the main axes).
+        tuple(np.radians((360.0, 300.0, 360.0, 381.0, 388.0, 615.0))),
+        (6.0, 5.0, 6.0, 8.0, 8.0, 10.0),
+        (0.15, -0.6, 0.95),
     ),
     "uji": _RobotInfo(
         "barrett",
         ("s1", "s2", "s3", "e1", "e2", "w1", "w2"),
         "pa10_base",
         (-0.145, 0.28, 0.175, 1.595, -0.05, 1.271, -1.531),
+        # PA10-7C data: 57 deg/s (S1, S2), 114 deg/s (S3, E1), 360 deg/s (E2, W1, W2).
+        # Accelerations chosen (not published).
+        tuple(np.radians((57.0, 57.0, 114.0, 114.0, 360.0, 360.0, 360.0))),
+        (2.0, 2.0, 4.0, 4.0, 8.0, 8.0, 8.0),
+        (0.15, 0.6, 0.95),
     ),
 }
 ROBOT_NAMES = tuple(_INFO)
@@ -94,6 +107,10 @@ class Robot:
         table_geom: Name of the table geom.
         home: Arm joint angles of a pose above the table, shape (n_arm,), radians.
         dh: The published DH table of the arm (see :data:`DH`).
+        velocity_limits: Joint speed limits, shape (n_arm,), rad/s.
+        acceleration_limits: Joint acceleration limits, shape (n_arm,), rad/s^2.
+        dropoff: Where the hand releases a picked object, beside the table: TCP position
+            (3,), metres, world frame.
     """
 
     name: str
@@ -103,6 +120,9 @@ class Robot:
     arm_base: str
     home: tuple[float, ...]
     dh: dict[str, tuple[float, ...]]
+    velocity_limits: tuple[float, ...] = ()
+    acceleration_limits: tuple[float, ...] = ()
+    dropoff: tuple[float, float, float] = (0.0, 0.0, 0.0)
     hand_prefix: str = "hand/"
     flange_site: str = "flange"
     camera: str = "head_camera"
@@ -111,6 +131,11 @@ class Robot:
     @property
     def n_arm(self) -> int:
         return len(self.arm_joints)
+
+    @property
+    def tcp_site(self) -> str:
+        """Name of the hand's TCP site in the scene."""
+        return self.hand_prefix + "tcp"
 
     def spec(self) -> mujoco.MjSpec:
         """A fresh, editable :class:`mujoco.MjSpec` of the scene, with a ``home`` keyframe."""
@@ -164,6 +189,9 @@ def load(name: str) -> Robot:
         arm_base=info.arm_base,
         home=info.home,
         dh=DH[name],
+        velocity_limits=info.velocity_limits,
+        acceleration_limits=info.acceleration_limits,
+        dropoff=info.dropoff,
     )
 
 

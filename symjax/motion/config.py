@@ -1,0 +1,97 @@
+"""Settings of ``PlanArmTrajectory`` (paper Section IV-B): IK, approach, transit and timing."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from symjax.errors import ConfigError
+from symjax.validation import check_fields
+
+__all__ = ["MotionConfig"]
+
+
+@dataclasses.dataclass(frozen=True)
+class MotionConfig:
+    """Parameters of :func:`symjax.motion.plan_arm`.
+
+    Attributes:
+        position_tolerance: IK converged when the TCP is within this of its target, metres.
+        orientation_tolerance: ...and turned less than this from it, radians (1 deg).
+        ik_iterations: Most differential-IK steps per seed.
+        ik_restarts: Seeds tried before a pose is declared unreachable: the start
+            configuration, home, then random configurations within the joint limits.
+        ik_dt: Integration step of the differential IK, seconds (mink's ``dt``).
+        ik_damping: Levenberg-Marquardt damping of the IK least squares.
+        posture_cost: Weight of the posture task towards home (picks elbow-up solutions).
+        clearance: Distance kept from the table and obstacles by mink's collision-avoidance
+            limit during IK and the Cartesian motions, metres.
+        detection_distance: The collision-avoidance limit looks at geom pairs closer than this,
+            metres.
+        check_margin: A configuration collides when a robot geom comes closer than this to the
+            table, an obstacle or another robot link (OMPL's validity check), metres.
+        cartesian_step: Spacing of the waypoints of a straight-line TCP motion, metres.
+        cartesian_iterations: Most IK steps per waypoint.
+        cartesian_tolerance: A straight-line motion fails when the TCP ends farther than this
+            from its goal (the collision-avoidance limit stopped it), metres.
+        lift_height: Lift after the grasp, along the table normal, metres (paper: 10 cm).
+        planner_time: RRT-Connect time limit per query, seconds.
+        planner_range: RRT-Connect extension length in joint space, radians.
+        resolution: Joint-space step between collision checks along a motion, radians.
+        simplify_time: Path shortcutting time per query, seconds.
+        velocity_scale: Fraction of the arm's joint speed limits the trajectory uses.
+        acceleration_scale: Fraction of its acceleration limits.
+        sample_dt: Spacing of the trajectory samples, seconds.
+        close_time: Hand closing, seconds.
+        release_time: Hand opening at the drop-off, seconds.
+        seed: Seed of the IK restarts.
+    """
+
+    position_tolerance: float = 1e-3
+    orientation_tolerance: float = math.radians(1.0)
+    ik_iterations: int = 150
+    ik_restarts: int = 6
+    ik_dt: float = 0.1
+    ik_damping: float = 1e-3
+    posture_cost: float = 1e-3
+    clearance: float = 0.005
+    detection_distance: float = 0.05
+    check_margin: float = 0.005
+    cartesian_step: float = 0.01
+    cartesian_iterations: int = 20
+    cartesian_tolerance: float = 0.005
+    lift_height: float = 0.10
+    planner_time: float = 1.0
+    planner_range: float = 0.5
+    resolution: float = 0.02
+    simplify_time: float = 0.05
+    velocity_scale: float = 0.5
+    acceleration_scale: float = 0.5
+    sample_dt: float = 0.01
+    close_time: float = 1.0
+    release_time: float = 0.5
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        positive = (
+            "position_tolerance", "orientation_tolerance", "ik_iterations", "ik_dt",
+            "detection_distance", "cartesian_step", "cartesian_iterations",
+            "cartesian_tolerance", "planner_time", "planner_range", "resolution",
+            "sample_dt", "close_time", "release_time",
+        )  # fmt: skip
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"{name} = {getattr(self, name)!r}; expected > 0")
+        for name in ("ik_restarts", "ik_damping", "posture_cost", "clearance", "check_margin",
+                     "lift_height", "simplify_time"):  # fmt: skip
+            if getattr(self, name) < 0:
+                raise ConfigError(f"{name} = {getattr(self, name)!r}; expected >= 0")
+        for name in ("velocity_scale", "acceleration_scale"):
+            if not 0 < getattr(self, name) <= 1:
+                raise ConfigError(f"{name} = {getattr(self, name)!r}; expected in (0, 1]")
+        if self.detection_distance <= self.clearance:
+            raise ConfigError(
+                f"detection_distance = {self.detection_distance} must exceed clearance ="
+                f" {self.clearance} (metres)"
+            )

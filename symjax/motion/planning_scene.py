@@ -1,0 +1,394 @@
+"""The planning scene: a robot, its table and the objects on it as convex hulls.
+
+Objects are mocap bodies, so moving one only changes ``MjData.mocap_pos``/``mocap_quat``. An
+attached object becomes part of the hand: its hulls are copied onto a body under the hand base,
+whose pose relative to the hand is a model field set at attach time. The compiled model is cached
+per (object set, attached object); adding or removing an object, or attaching a different one,
+compiles a new model from the robot's :class:`mujoco.MjSpec` (tens of milliseconds).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from symjax.array_types import ArrayLike
+from symjax.errors import EmptyInputError, InvalidInputError, ShapeError, unknown_name
+from symjax.geometry import as_pose
+
+__all__ = ["PlanningScene", "SceneModel"]
+
+_ENV_FIXED = ("table", "floor", "pedestal")
+_CARRIED = "carried"
+
+
+@dataclasses.dataclass
+class _Object:
+    hulls: list[tuple[np.ndarray, np.ndarray]]
+    pos: np.ndarray
+    quat: np.ndarray
+
+
+@dataclasses.dataclass(eq=False)
+class SceneModel:
+    """One compiled variant of a :class:`PlanningScene` and its geom groups.
+
+    Attributes:
+        model: The compiled model (arm, hand, table, objects; the attached object under the
+            hand).
+        data: Scratch data for collision checks.
+        arm_geoms, hand_geoms: Geom ids of the arm links and of the hand, (k,) int.
+        carried_geoms: Geoms of the attached object, (k,) int (empty when nothing is attached).
+        fixed_geoms: Table, floor and pedestal, (k,) int.
+        object_geoms: Per object name, its geom ids.
+        robot_mask: Per geom: arm, hand or carried, (ngeom,) bool.
+        mocap: Per object name, its mocap index.
+        carried_body: Body id of the attachment body, or -1.
+        tcp_site: Site id of the TCP.
+    """
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    arm_geoms: np.ndarray
+    hand_geoms: np.ndarray
+    carried_geoms: np.ndarray
+    fixed_geoms: np.ndarray
+    object_geoms: dict[str, np.ndarray]
+    robot_mask: np.ndarray
+    mocap: dict[str, int]
+    carried_body: int
+    tcp_site: int
+
+
+def _hull_list(hulls: Any) -> list[tuple[np.ndarray, np.ndarray]]:
+    from symjax.decompose import Decomposition
+
+    if isinstance(hulls, Decomposition):
+        hulls = hulls.hulls
+    if not isinstance(hulls, (list, tuple)) or not hulls:
+        raise EmptyInputError(
+            "an object needs a Decomposition or a non-empty list of (vertices, faces) hulls"
+        )
+    out = []
+    for v, f in hulls:
+        v, f = np.asarray(v, np.float64), np.asarray(f)
+        if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or f.ndim != 2 or f.shape[1] != 3:
+            raise ShapeError(f"a hull needs vertices (V>=4, 3) and faces (F, 3), got {v.shape}")
+        if not np.all(np.isfinite(v)):
+            raise InvalidInputError("hull vertices contain NaN or inf")
+        out.append((v, f.astype(np.int64)))
+    return out
+
+
+class PlanningScene:
+    """A robot, the table and the objects on it, for IK, collision checks and motion planning.
+
+    Args:
+        robot: ``"kth"``, ``"uji"`` or a :class:`symjax.robots.Robot`.
+        objects: Optional ``{name: hulls}`` to add (see :meth:`add_object`), world frame.
+        target: Name of the object to grasp, or None.
+        margin: A robot geom closer than this to anything counts as a collision, metres.
+
+    Raises:
+        UnknownNameError: An unknown robot.
+    """
+
+    def __init__(
+        self,
+        robot: Any,
+        objects: dict[str, Any] | None = None,
+        target: str | None = None,
+        margin: float = 0.005,
+    ):
+        from symjax import robots
+        from symjax.hands import load as load_hand
+
+        self.robot = robot if isinstance(robot, robots.Robot) else robots.load(robot)
+        self.hand = load_hand(self.robot.hand)
+        self._margin = float(margin)
+        self._objects: dict[str, _Object] = {}
+        self._version = 0
+        self._attached: str | None = None
+        self._attach_pose = (np.zeros(3), np.array([1.0, 0, 0, 0]))
+        self._cache: dict[tuple[int, str | None], SceneModel] = {}
+        for name, hulls in (objects or {}).items():
+            self.add_object(name, hulls)
+        self._target: str | None = None
+        self.target = target
+
+    @property
+    def margin(self) -> float:
+        """Contact distance that counts as a collision, metres."""
+        return self._margin
+
+    @margin.setter
+    def margin(self, value: float) -> None:
+        if float(value) != self._margin:
+            self._margin = float(value)
+            self._version += 1
+
+    # --- objects ------------------------------------------------------------------------------
+    @property
+    def object_names(self) -> tuple[str, ...]:
+        return tuple(self._objects)
+
+    @property
+    def target(self) -> str | None:
+        """The object to grasp: collisions of the hand with it are allowed on the approach."""
+        return self._target
+
+    @target.setter
+    def target(self, name: str | None) -> None:
+        if name is not None and name not in self._objects:
+            raise unknown_name("target object", name, self.object_names or ("<none>",))
+        self._target = name
+
+    @property
+    def attached(self) -> str | None:
+        """The object held by the hand, or None."""
+        return self._attached
+
+    def add_object(self, name: str, hulls: Any, pose: ArrayLike | None = None) -> None:
+        """Adds an object made of convex hulls.
+
+        Args:
+            name: A new object name.
+            hulls: A :class:`symjax.decompose.Decomposition` or a list of ``(vertices (V, 3),
+                faces (F, 3))``, metres, in the object's frame.
+            pose: The object frame in the world, a (4, 4) matrix or ``(x, y, z, qw, qx, qy,
+                qz)``; default identity (hulls given in the world frame).
+        """
+        if not isinstance(name, str) or not name or "/" in name:
+            raise InvalidInputError(f"object name must be a non-empty string without '/': {name!r}")
+        if name in self._objects:
+            raise InvalidInputError(f"object {name!r} is already in the scene")
+        pos, R = as_pose(np.eye(4) if pose is None else pose)
+        self._objects[name] = _Object(_hull_list(hulls), pos, _quat(R))
+        self._version += 1
+
+    def remove_object(self, name: str) -> None:
+        """Removes an object (and detaches it if held)."""
+        self._check(name)
+        if self._attached == name:
+            self._attached = None
+        if self._target == name:
+            self._target = None
+        del self._objects[name]
+        self._version += 1
+
+    def move_object(self, name: str, pose: ArrayLike) -> None:
+        """Moves an object rigidly (no recompilation); ``pose`` as in :meth:`add_object`."""
+        self._check(name)
+        pos, R = as_pose(pose)
+        self._objects[name].pos, self._objects[name].quat = pos, _quat(R)
+
+    def object_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(position (3,), rotation (3, 3))`` of an object's frame in the world."""
+        self._check(name)
+        o = self._objects[name]
+        R = np.zeros(9)
+        mujoco.mju_quat2Mat(R, o.quat)
+        return o.pos.copy(), R.reshape(3, 3)
+
+    def attach(self, name: str, q: ArrayLike) -> None:
+        """Attaches an object to the hand at its current pose relative to the hand.
+
+        Args:
+            name: The object.
+            q: Full configuration (``model.nq``) whose hand pose holds the object.
+        """
+        self._check(name)
+        sm = self.scene_model(attached=None)
+        d = sm.data
+        self._forward(sm, q)
+        hb = sm.model.body(self.robot.hand_prefix + self.hand.base_body).id
+        Rh, ph = d.xmat[hb].reshape(3, 3), d.xpos[hb]
+        po, Ro = self.object_pose(name)
+        self._attach_pose = (Rh.T @ (po - ph), _quat(Rh.T @ Ro))
+        self._attached = name
+
+    def detach(self, q: ArrayLike | None = None) -> None:
+        """Releases the held object; with ``q`` it stays where the hand put it, else it returns
+        to its pose before the attach."""
+        if self._attached is None:
+            return
+        name = self._attached
+        if q is not None:
+            sm = self.scene_model()
+            self._forward(sm, q)
+            b = sm.carried_body
+            self._objects[name].pos = sm.data.xpos[b].copy()
+            self._objects[name].quat = _quat(sm.data.xmat[b].reshape(3, 3))
+        self._attached = None
+
+    def _check(self, name: str) -> None:
+        if name not in self._objects:
+            raise unknown_name("object", name, self.object_names or ("<none>",))
+
+    # --- models -------------------------------------------------------------------------------
+    def scene_model(self, attached: str | None | type[Ellipsis] = ...) -> SceneModel:
+        """The compiled variant for the current objects (and the attached one)."""
+        att = self._attached if attached is ... else attached
+        key = (self._version, att)
+        if key not in self._cache:
+            self._cache = {k: v for k, v in self._cache.items() if k[0] == self._version}
+            self._cache[key] = self._compile(att)
+        sm = self._cache[key]
+        if att is not None:
+            sm.model.body_pos[sm.carried_body] = self._attach_pose[0]
+            sm.model.body_quat[sm.carried_body] = self._attach_pose[1]
+        return sm
+
+    def _compile(self, attached: str | None) -> SceneModel:
+        spec = self.robot.spec()
+        prefix = self.robot.hand_prefix
+        for g in spec.geoms:
+            g.margin = self.margin
+        for name, obj in self._objects.items():
+            if name == attached:
+                continue
+            body = spec.worldbody.add_body(name=f"obj/{name}", mocap=True)
+            _add_hulls(spec, body, f"obj/{name}", obj.hulls, rgba=[0.3, 0.6, 0.9, 1])
+        if attached is not None:
+            hb = spec.body(prefix + self.hand.base_body)
+            body = hb.add_body(name=_CARRIED)
+            _add_hulls(spec, body, _CARRIED, self._objects[attached].hulls, rgba=[0.9, 0.5, 0.2, 1])
+        m = spec.compile()
+        d = mujoco.MjData(m)
+        body_names = [m.body(i).name for i in range(m.nbody)]
+        gb = m.geom_bodyid
+        arm_bodies = {m.body(self.robot.arm_base).id} | {
+            i for i in range(m.nbody) if body_names[i].startswith("link")
+        }
+        hand_bodies = {i for i in range(m.nbody) if body_names[i].startswith(prefix)}
+        carried = m.body(_CARRIED).id if attached is not None else -1
+        ids = np.arange(m.ngeom)
+        arm = ids[np.isin(gb, list(arm_bodies))]
+        hand = ids[np.isin(gb, list(hand_bodies))]
+        carried_g = ids[gb == carried] if carried >= 0 else np.zeros(0, int)
+        fixed = np.array([m.geom(n).id for n in _ENV_FIXED if _has_geom(m, n)])
+        objs, mocap = {}, {}
+        for name in self._objects:
+            if name == attached:
+                continue
+            b = m.body(f"obj/{name}").id
+            objs[name] = ids[gb == b]
+            mocap[name] = int(m.body_mocapid[b])
+        mask = np.zeros(m.ngeom, bool)
+        mask[np.concatenate([arm, hand, carried_g])] = True
+        return SceneModel(m, d, arm, hand, carried_g, fixed, objs, mask, mocap, carried,
+                          m.site(self.robot.tcp_site).id)  # fmt: skip
+
+    # --- state --------------------------------------------------------------------------------
+    def full_q(self, q_arm: ArrayLike, preshape: int | str = "open") -> np.ndarray:
+        """The model's qpos: arm angles (n_arm,) and the hand in a pre-shape (or its name)."""
+        q_arm = np.asarray(q_arm, np.float64)
+        n = self.robot.n_arm
+        if q_arm.shape != (n,):
+            raise ShapeError(f"arm configuration must have shape ({n},), got {q_arm.shape}")
+        if not np.all(np.isfinite(q_arm)):
+            raise InvalidInputError("arm configuration contains NaN or inf")
+        k = self.hand.preshape_index(preshape) if isinstance(preshape, str) else int(preshape)
+        return np.concatenate([q_arm, np.asarray(self.hand.preshape_qpos, np.float64)[k]])
+
+    def sync(self, sm: SceneModel, d: mujoco.MjData) -> None:
+        """Copies the objects' poses into ``d``'s mocap arrays."""
+        for name, i in sm.mocap.items():
+            d.mocap_pos[i] = self._objects[name].pos
+            d.mocap_quat[i] = self._objects[name].quat
+
+    def _forward(self, sm: SceneModel, q: ArrayLike, d: mujoco.MjData | None = None) -> None:
+        d = sm.data if d is None else d
+        q = np.asarray(q, np.float64)
+        if q.shape != (sm.model.nq,):
+            raise ShapeError(f"configuration must have shape ({sm.model.nq},), got {q.shape}")
+        d.qpos[:] = q
+        self.sync(sm, d)
+        mujoco.mj_kinematics(sm.model, d)
+
+    def tcp_pose(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """TCP ``(position (3,), rotation (3, 3))`` in the world at configuration ``q`` (nq,)."""
+        sm = self.scene_model()
+        self._forward(sm, q)
+        return sm.data.site_xpos[sm.tcp_site].copy(), sm.data.site_xmat[sm.tcp_site].reshape(3, 3)
+
+    def collisions(
+        self, q: ArrayLike, allow: tuple[tuple[str, str], ...] = ()
+    ) -> list[tuple[str, str, float]]:
+        """Robot contacts at configuration ``q``: ``(geom, geom, distance)``, closer than
+        :attr:`margin`.
+
+        Counted: the arm, the hand or the attached object against the table, floor, pedestal,
+        an object or another robot link; the attached object against the hand holding it is
+        not.
+
+        Args:
+            q: Full configuration, shape (nq,).
+            allow: Contacts that are allowed, as ``(part, other)`` pairs: ``part`` is
+                ``"hand"``, ``"carried"`` or ``"robot"`` (arm, hand and carried object);
+                ``other`` an object name or ``"table"``. The approach allows
+                ``("hand", target)``; the lift allows ``("carried", "table")``.
+        """
+        sm = self.scene_model()
+        m, d = sm.model, sm.data
+        self._forward(sm, q)
+        mujoco.mj_collision(m, d)
+        if d.ncon == 0:
+            return []
+        g1 = d.contact.geom1[: d.ncon]
+        g2 = d.contact.geom2[: d.ncon]
+        dist = d.contact.dist[: d.ncon]
+        # Some colliders (box-capsule) also return contacts a little beyond the margin.
+        bad = _classify(sm, g1, g2, allow) & (dist < self._margin)
+        return [(m.geom(a).name, m.geom(b).name, float(x))
+                for a, b, x, k in zip(g1, g2, dist, bad, strict=True) if k]  # fmt: skip
+
+    def is_valid(self, q: ArrayLike, allow: tuple[tuple[str, str], ...] = ()) -> bool:
+        """No collision at ``q`` (see :meth:`collisions`); a Python bool."""
+        return not self.collisions(q, allow)
+
+
+def _mask(n: int, ids) -> np.ndarray:
+    out = np.zeros(n, bool)
+    out[np.asarray(ids, int)] = True
+    return out
+
+
+def _classify(sm: SceneModel, g1, g2, allow) -> np.ndarray:
+    n = len(sm.robot_mask)
+    bad = sm.robot_mask[g1] | sm.robot_mask[g2]
+    hand, carried = _mask(n, sm.hand_geoms), _mask(n, sm.carried_geoms)
+    # The held object touches the fingers by design.
+    bad &= ~((carried[g1] & hand[g2]) | (carried[g2] & hand[g1]))
+    parts = {"hand": hand, "carried": carried, "robot": sm.robot_mask}
+    for part, other in allow:
+        if other == "table":
+            env = _mask(n, sm.fixed_geoms[:1])
+        elif other in sm.object_geoms:
+            env = _mask(n, sm.object_geoms[other])
+        else:
+            continue
+        mover = parts[part]
+        bad &= ~((mover[g1] & env[g2]) | (mover[g2] & env[g1]))
+    return bad
+
+
+def _has_geom(m: mujoco.MjModel, name: str) -> bool:
+    return mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) >= 0
+
+
+def _quat(R: np.ndarray) -> np.ndarray:
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, np.float64).ravel())
+    return q
+
+
+def _add_hulls(spec, body, prefix: str, hulls, rgba) -> None:
+    for i, (v, f) in enumerate(hulls):
+        mesh = f"{prefix}/hull{i}"
+        spec.add_mesh(name=mesh, uservert=v.ravel(), userface=f.ravel())
+        body.add_geom(name=mesh, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh,
+                      rgba=rgba, density=0.0)  # fmt: skip
