@@ -53,7 +53,7 @@ def test_ik_reaches_pose_grid_and_matches_dh(scenes, name):
     q0 = scene.full_q(home)
     reached = 0
     # Targets: TCP poses of configurations around home (reachable by construction).
-    offsets = rng.uniform(-0.35, 0.35, size=(12, scene.robot.n_arm))
+    offsets = rng.uniform(-0.25, 0.25, size=(12, scene.robot.n_arm))
     for off in offsets:
         q_t = scene.full_q(home + off)
         p, R = scene.tcp_pose(q_t)

@@ -112,7 +112,6 @@ class ArmIK:
 
         conf, frame, posture, freeze, limits = solver
         cfg = self.config
-        conf.update(q0)
         self.scene.sync(sm, conf.data)
         conf.update(q0)
         frame.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(R), p))
