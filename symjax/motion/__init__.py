@@ -15,8 +15,8 @@ from symjax.motion.config import MotionConfig
 from symjax.motion.ik import ArmIK, IKResult
 from symjax.motion.pick import StartInCollisionError, plan_arm, plan_arm_batch
 from symjax.motion.planning_scene import PlanningScene
-from symjax.motion.verification import ReplayReport, replay, replay_model
 from symjax.motion.transit import TransitResult, plan_transit
+from symjax.motion.verification import ReplayReport, replay, replay_model
 
 __all__ = [
     "SEGMENTS",
