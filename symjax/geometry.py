@@ -24,6 +24,7 @@ __all__ = [
     "backproject",
     "bucket",
     "euler_zyx",
+    "is_closed",
     "mesh_arrays",
     "pad_rows",
     "pixel_rays",
@@ -264,3 +265,16 @@ def rotation_angle_np(Ra: ArrayLike, Rb: ArrayLike) -> float:
     """Angle (radians) of the rotation between two (3, 3) rotations, numpy float64."""
     c = (np.trace(np.asarray(Ra, np.float64).T @ np.asarray(Rb, np.float64)) - 1.0) / 2.0
     return float(np.arccos(np.clip(c, -1.0, 1.0)))
+
+
+def is_closed(faces: np.ndarray, n_vertices: int) -> bool:
+    """Watertight with consistent winding: each directed edge once, and its reverse once.
+
+    The same test as ``trimesh``'s ``is_watertight and is_winding_consistent``, several times
+    cheaper on marching-cubes meshes of 10^5 faces.
+    """
+    a = faces.reshape(-1)
+    b = np.roll(faces, -1, axis=1).reshape(-1)
+    fwd = np.sort(a.astype(np.int64) * n_vertices + b)
+    rev = np.sort(b.astype(np.int64) * n_vertices + a)
+    return bool(np.all(fwd[1:] != fwd[:-1]) and np.array_equal(fwd, rev))

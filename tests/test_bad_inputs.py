@@ -317,6 +317,8 @@ CASES = [
     ("motion-grasp-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _nan_grasp()), InvalidInputError, ["NaN", "pregrasp"]),
     ("motion-start-shape", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.zeros(3)), ShapeError, ["(7,)", "(3,)"]),
     ("motion-start-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.full(7, np.nan)), InvalidInputError, ["NaN"]),
+    ("motion-start-joint-limit", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.full(7, 4.0)), InvalidInputError, ["start joint 0", "outside its range"]),
+    ("motion-closing-sweep-steps", lambda d: __import__("symjax.motion.closing", fromlist=["x"]).closing_contacts(motion.PlanningScene("uji"), np.zeros(3), 1), ShapeError, ["full configuration", "(15,)"]),
     ("motion-start-in-collision", lambda d: motion.plan_arm(_blocked_scene(), _grasp()), motion.StartInCollisionError, ["start configuration", "obj/block"]),
     ("motion-grasp-type", lambda d: motion.plan_arm_batch(motion.PlanningScene("uji"), [3]), InvalidInputError, ["GraspPose", "int"]),
     ("motion-grasp-source", lambda d: motion.grasp_poses("plan"), InvalidInputError, ["GraspPlan", "str"]),

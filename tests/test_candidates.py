@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 from symjax import grasp, hands
-from symjax.errors import ConfigError, ShapeError, UnknownNameError
+from symjax.errors import ConfigError, InvalidInputError, ShapeError, UnknownNameError
 from symjax.table import TablePlane
 
 TABLE = TablePlane.horizontal(0.0)
@@ -147,3 +147,25 @@ def test_bad_input():
         grasp.generate((np.zeros((4, 2)), np.zeros((4, 3), int)), "kth")
     with pytest.raises(ConfigError):
         grasp.CandidateConfig(distances=(-0.1,))
+
+
+def test_candidates_slice_take_and_concatenate(bottle):
+    c = grasp.generate(bottle, "uji", table=TABLE).candidates
+    n = len(c)
+    head, tail = c[:5], c[5:]
+    assert len(head) == 5 and len(tail) == n - 5
+    both = grasp.Candidates.concatenate([head, tail])
+    for a, b in zip(jax.tree_util.tree_leaves(both), jax.tree_util.tree_leaves(c), strict=True):
+        np.testing.assert_array_equal(a, b)
+    picked = c.take([3, 0, 3])
+    np.testing.assert_array_equal(picked.point, np.asarray(c.point)[[3, 0, 3]])
+    mask = np.zeros(n, bool)
+    mask[[1, 2]] = True
+    np.testing.assert_array_equal(c.take(mask).roll, np.asarray(c.roll)[[1, 2]])
+    assert len(c[2]) == 1
+    with pytest.raises(ShapeError, match="mask"):
+        c.take(np.ones(n + 1, bool))
+    with pytest.raises(InvalidInputError, match="out of range"):
+        c.take([n])
+    with pytest.raises(InvalidInputError, match="non-empty list"):
+        grasp.Candidates.concatenate([])

@@ -469,3 +469,19 @@ def test_all_128_views_with_a_process_pool(cache):
     here = render_view(load_dataset_object("011_banana", cache_dir=cache), 315.0, seed=0)
     np.testing.assert_array_equal(here.points, bench["011_banana/315"].points)
     np.testing.assert_array_equal(here.depth, bench["011_banana/315"].depth)
+
+
+def test_true_mesh_in_the_world_frame(views, cache):
+    import dataclasses
+
+    v = views["025_mug/135"]
+    bare = dataclasses.replace(v, gt_mesh=None)  # as read without its object model
+    m = bare.true_mesh(cache)
+    np.testing.assert_allclose(m.vertices, v.gt_mesh.vertices, atol=1e-9)
+    assert v.true_mesh() is v.gt_mesh
+    # The observed points lie on it.
+    d = surface_distance(v.points[::20], m)
+    assert np.median(d) < 0.005
+    real = dataclasses.replace(v, gt_mesh=None, gt_pose=None, source="real")
+    with pytest.raises(InvalidInputError, match="no ground truth"):
+        real.true_mesh()

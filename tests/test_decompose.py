@@ -110,3 +110,44 @@ def test_bad_input_raises():
         decompose((np.zeros((10, 3)), np.full((4, 3), 99)), use_cache=False)
     with pytest.raises(ConfigError):
         DecomposeConfig(max_vertices=3)
+
+
+def test_a_decomposition_moves_rigidly_without_coacd(ring, tmp_path):
+    dec = decompose(ring, FAST, cache_dir=tmp_path)
+    T = np.eye(4)
+    T[:3, :3] = trimesh.transformations.rotation_matrix(0.7, (0, 0, 1))[:3, :3]
+    T[:3, 3] = (0.6, -0.2, 0.8)
+    moved = dec.transformed(T)
+    assert moved.n_hulls == dec.n_hulls and moved.key != dec.key
+    for (v0, f0), (v1, f1) in zip(dec.hulls, moved.hulls, strict=True):
+        np.testing.assert_allclose(v1, v0 @ T[:3, :3].T + T[:3, 3], atol=1e-12)
+        np.testing.assert_array_equal(f0, f1)
+        assert ConvexHull(v1).volume == pytest.approx(ConvexHull(v0).volume, rel=1e-9)
+    # Moving back gives the hulls again; the cache holds only the one coacd entry.
+    back = moved.transformed(np.linalg.inv(T))
+    for (v0, _), (v2, _) in zip(dec.hulls, back.hulls, strict=True):
+        np.testing.assert_allclose(v2, v0, atol=1e-12)
+    assert len(list(tmp_path.iterdir())) == 1
+
+
+def test_large_meshes_are_simplified_before_coacd(tmp_path, monkeypatch):
+    """A Poisson-sized mesh (20k faces) reaches coacd decimated to ``max_faces``; the hulls still
+    cover it (coacd took 12 to 110 s on completed meshes of 55k-104k faces)."""
+    from symjax.decompose import hulls as hulls_module
+
+    seen = []
+    real = hulls_module._run_coacd
+
+    def spy(v, f, config, closed):
+        seen.append((len(f), closed))
+        return real(v, f, config, closed)
+
+    monkeypatch.setattr(hulls_module, "_run_coacd", spy)
+    m = trimesh.creation.capsule(0.12, 0.03, count=[100, 100])
+    assert len(m.faces) > 15000
+    dec = decompose(m, DecomposeConfig(max_faces=1500), cache_dir=tmp_path)
+    assert seen[0][0] <= 1500 and seen[0][1]  # decimated; the input was closed
+    vol = sum(ConvexHull(v).volume for v, _ in dec.hulls)
+    assert abs(vol - m.volume) < 0.1 * m.volume  # 64-vertex hulls cut a little off
+    full = decompose(m, DecomposeConfig(max_faces=0), cache_dir=tmp_path, use_cache=False)
+    assert seen[1][0] == len(m.faces) and full.n_hulls >= 1

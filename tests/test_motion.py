@@ -98,7 +98,7 @@ def test_rrt_connect_goes_around_a_box_and_replay_is_clean():
     # The straight joint-space line from home to the pre-grasp goes through the wall.
     q0 = scene.full_q(scene.robot.home, 1)
     q_pre = scene.full_q(plan.segment("approach")[1][0], 1)
-    assert not segment_valid(scene, q0, q_pre, cfg.resolution)
+    assert not segment_valid(scene, q0, q_pre, cfg.check_step)
     assert [s for s, _, _ in plan.segments] == list(motion.SEGMENTS)
     rep = motion.replay(plan, scene)
     assert rep.collision_free, rep.collisions
@@ -200,3 +200,32 @@ def test_grasp_poses_from_candidates():
     (g,) = motion.grasp_poses(c)
     assert np.allclose(g.pregrasp[0], [0.7, 0, 0.9]) and np.allclose(g.grasp[0], [0.7, 0, 0.8])
     assert np.allclose(g.approach, [0, 0, -1], atol=1e-6)
+
+
+def test_closing_fingers_are_checked_against_the_clutter():
+    """A post where a Barrett finger ends when it closes: clear at the pre-shape, hit while closing;
+    with a target between the fingers they stop on it and the post is never reached."""
+    from symjax.motion.closing import closing_contacts
+
+    scene = motion.PlanningScene("uji")
+    q = scene.full_q(scene.robot.home, "open")
+    sm = scene.scene_model()
+    d = mujoco.MjData(sm.model)
+    closed = q.copy()
+    n = scene.robot.n_arm
+    closed[n:] = 0.0
+    for j, name in enumerate(scene.hand.joint_names):
+        if name.endswith("proximal"):
+            closed[n + j] = 1.3
+    d.qpos[:] = closed
+    mujoco.mj_kinematics(sm.model, d)
+    tip = d.geom_xpos[sm.model.geom(scene.robot.hand_prefix + "f3_distal").id].copy()
+    scene.add_object("post", box((0.02, 0.02, 0.02), tip))
+    assert scene.is_valid(q)  # the pre-shape is clear of it
+    hits = closing_contacts(scene, q, scene.hand.preshape_index("open"))
+    assert any("obj/post" in a + b for a, b, _ in hits), hits
+    # A wide target between the fingers stops them before the post.
+    p, _ = scene.tcp_pose(q)
+    scene.add_object("can", box((0.18, 0.08, 0.06), p + (0.0, 0.0, -0.04)))
+    scene.target = "can"
+    assert closing_contacts(scene, q, scene.hand.preshape_index("open")) == []

@@ -267,3 +267,65 @@ def test_simulation_config_rejects_bad_values(bad):
 
     with pytest.raises(ConfigError):
         SimulationConfig(**bad)
+
+
+def test_c_rollouts_are_bit_identical_in_a_batch_alone_and_rerun(agreement_batch, hand_models):
+    """Each rollout starts from a zero warm start: its result depends on its inputs alone.
+
+    The solver used to start from the thread's previous rollout, so one candidate gave other
+    bits (and sometimes another label) in a batch, alone, or on a rerun.
+    """
+    (v, f), cands = agreement_batch
+    hand = hand_models["sdh"]
+    scene = grasp.build_scene([(v, f)], hand, SimulationConfig())
+    ex = ExecutionConfig(simulation_threads=2)
+    idx = np.arange(0, 32, 4)
+    sub = jax.tree_util.tree_map(lambda x: np.asarray(x)[idx], cands)
+    batch = grasp.simulate(None, sub, hand, backend="mujoco", scene=scene, execution=ex).numpy()
+    again = grasp.simulate(None, sub, hand, backend="mujoco", scene=scene, execution=ex).numpy()
+    for name in ("success", "travel", "lift", "shake_motion", "epsilon", "close_motion"):
+        np.testing.assert_array_equal(getattr(batch, name), getattr(again, name), err_msg=name)
+    for j in (1, 3, 6):
+        one = jax.tree_util.tree_map(lambda x, j=j: x[j : j + 1], sub)
+        alone = grasp.simulate(None, one, hand, backend="mujoco", scene=scene).numpy()
+        for name in ("travel", "lift", "shake_motion", "close_motion"):
+            assert getattr(alone, name)[0] == getattr(batch, name)[j], (name, j)
+
+
+def test_new_objects_reuse_the_compiled_schedule_and_labels(hand_models):
+    """Objects of other sizes, masses and hull counts share one compile (a geom bucket)."""
+    from symjax.grasp.backends import mujoco_backend
+
+    hand = hand_models["sdh"]
+    cfg = SimulationConfig()
+    sizes = []
+    for k, (w, h) in enumerate([(0.05, 0.12), (0.06, 0.10), (0.045, 0.14)]):
+        parts = []
+        for i in range(k + 1):  # 1, 2 and 3 hulls
+            b = trimesh.creation.box([w, 0.07, h / (k + 1)])
+            b.apply_translation([0.5, 0.0, (i + 0.5) * h / (k + 1)])
+            parts.append(_mesh(b))
+        top = np.array([[0.5, 0.0, h]])
+        cands = Candidates(
+            approach=np.array([[0, 0, -1.0]], np.float32), point=top.astype(np.float32),
+            roll=np.zeros(1, np.float32), preshape=np.full(1, 1, np.int32),
+            distance=np.array([0.05], np.float32),
+        )  # fmt: skip
+        scene = grasp.build_scene(parts, hand, cfg)
+        out = grasp.simulate(None, cands, hand, backend="mujoco", scene=scene).numpy()
+        assert not out.diverged.any()
+        sched, label = mujoco_backend._compiled(scene)
+        sizes.append((sched._cache_size(), label._cache_size()))
+    assert sizes[1] == sizes[0] and sizes[2] == sizes[0], sizes
+
+
+def test_plan_takes_a_prebuilt_scene(objects, hand_models):
+    v, f = objects["box"]
+    hand = hand_models["barrett"]
+    scene = grasp.build_scene([(v, f)], hand, SimulationConfig())
+    a = plan((v, f), hand, "uji", hulls=[(v, f)], candidates=SMALL, backend="mujoco")
+    b = plan((v, f), hand, "uji", scene=scene, candidates=SMALL, backend="mujoco")
+    np.testing.assert_array_equal(a.order, b.order)
+    np.testing.assert_array_equal(a.outcomes.numpy().success, b.outcomes.numpy().success)
+    with pytest.raises(InvalidInputError, match="same hand"):
+        plan((v, f), hand_models["sdh"], "uji", scene=scene, candidates=SMALL)

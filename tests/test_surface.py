@@ -14,6 +14,7 @@ from symjax.errors import (
     ConfigError,
     DegenerateGeometryError,
     EmptyInputError,
+    InvalidInputError,
     ShapeError,
     SymjaxError,
 )
@@ -26,6 +27,7 @@ from symjax.surface import (
     delaunay_mesh,
     estimate_normals,
     oriented_completion,
+    oriented_observation,
     outlier_mask,
     poisson_reconstruct,
     poisson_reconstruct_batch,
@@ -158,7 +160,7 @@ def test_poisson_degenerate_inputs_raise():
     with pytest.raises(SymjaxError):
         poisson_reconstruct(p, n, -np.ones(len(p)), config=cfg)
     with pytest.raises(DegenerateGeometryError, match="inside-out"):
-        poisson_reconstruct(p, -n, config=cfg)
+        poisson_reconstruct(p, -n, config=PoissonConfig(depth=5, thin_shell=0))
 
 
 @pytest.mark.parametrize(
@@ -337,3 +339,101 @@ def test_symmetry_completion_beats_delaunay_baseline():
     meshes = poisson_reconstruct_batch(ops, PoissonConfig(depth=5))
     assert len(meshes) == 2 and all(m.is_watertight for m in meshes)
     assert mesh_deviation(gt, meshes[0], n_samples=5000).mean < 0.006
+
+
+def test_an_observed_cloud_alone_meshes_with_poisson():
+    """The baseline "observed points only": normals face the camera, Poisson closes the blob."""
+    rng = np.random.default_rng(4)
+    th = rng.uniform(-np.pi / 2, np.pi / 2, 3000)  # the half of a cylinder facing the camera
+    z = rng.uniform(0.0, 0.12, 3000)
+    pts = np.c_[0.6 - 0.035 * np.cos(th), 0.035 * np.sin(th), z]
+    cam = np.array([0.0, 0.0, 0.5])
+    op = oriented_observation(pts, cam)
+    assert len(op) > 2900 and not op.mirrored.any()
+    assert np.all(np.einsum("ij,ij->i", op.normals, cam - op.points) > 0)
+    mesh = poisson_reconstruct(op.points, op.normals, op.weights, PoissonConfig(depth=5))
+    assert mesh.is_watertight
+    d = np.abs(np.hypot(mesh.vertices[:, 0] - 0.6, mesh.vertices[:, 1]) - 0.035)
+    front = mesh.vertices[:, 0] < 0.59
+    assert np.median(d[front]) < 0.004
+    with pytest.raises(ShapeError, match="camera"):
+        oriented_observation(pts, np.zeros(2))
+
+
+def test_completion_is_cut_and_closed_at_the_table():
+    """Points of a can standing on the table (side and top, no bottom): the Poisson surface
+    bulges under the table unless cut there; cut, it is closed by a flat bottom on the table."""
+    from symjax.table import TablePlane
+
+    rng = np.random.default_rng(5)
+    th = rng.uniform(0, 2 * np.pi, 4000)
+    z = rng.uniform(0.0, 0.12, 4000)
+    side = np.c_[0.035 * np.cos(th), 0.035 * np.sin(th), z]
+    r = 0.035 * np.sqrt(rng.uniform(0, 1, 800))
+    a = rng.uniform(0, 2 * np.pi, 800)
+    top = np.c_[r * np.cos(a), r * np.sin(a), np.full(800, 0.12)]
+    pts = np.concatenate([side, top]) + [0.6, 0.1, 0.0]
+    nrm = np.concatenate([np.c_[np.cos(th), np.sin(th), np.zeros(4000)],
+                          np.tile([0.0, 0.0, 1.0], (800, 1))])  # fmt: skip
+    cfg = PoissonConfig(depth=6)
+    free = poisson_reconstruct(pts, nrm, config=cfg)
+    assert free.vertices[:, 2].min() < -0.002  # the defect: it reaches under the table
+    table = TablePlane.horizontal(0.0)
+    cut = poisson_reconstruct(pts, nrm, config=cfg, table=table)
+    assert cut.is_watertight and cut.is_winding_consistent and cut.volume > 0
+    assert cut.vertices[:, 2].min() > -1e-4
+    bottom = cut.vertices[np.abs(cut.vertices[:, 2]) < 1e-4]
+    assert np.ptp(bottom[:, 0]) > 0.05  # a flat disc on the table closes it
+    vol = np.pi * 0.035**2 * 0.12
+    assert abs(cut.volume - vol) < 0.15 * vol
+    # The batch cuts each view at its own table.
+    a, b = poisson_reconstruct_batch([(pts, nrm), (pts, nrm)], cfg,
+                                     tables=[table, TablePlane.horizontal(-0.05)])  # fmt: skip
+    np.testing.assert_allclose(a.vertices, cut.vertices, atol=1e-6)
+    assert b.vertices[:, 2].min() < -0.002
+    with pytest.raises(InvalidInputError, match="tables"):
+        poisson_reconstruct_batch([(pts, nrm)], cfg, tables=[table, table])
+
+
+def test_an_open_bowl_seen_from_inside_meshes_as_a_wall():
+    """The inner surface of a bowl (normals into the cavity) gave an inside-out indicator and no
+    mesh; it is now solved as a wall 3 mm thick (depth 7) with the cavity left open."""
+    from symjax.grasp import inside_mesh
+
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=(6000, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    h = u[u[:, 2] < 0.2]  # a 5 cm bowl, open at the top
+    c = np.array([0.5, 0.0, 0.05])
+    with pytest.raises(DegenerateGeometryError, match="inside-out"):
+        poisson_reconstruct(0.05 * h + c, -h, config=PoissonConfig(depth=6, thin_shell=0))
+    m = poisson_reconstruct(0.05 * h + c, -h, config=PoissonConfig(depth=7))
+    assert m.is_watertight and m.volume > 0
+    r = np.linalg.norm(m.vertices - c, axis=1)
+    assert r.min() > 0.049 and r.max() < 0.054
+    t = m.metadata["thin_shell_m"]
+    area = 2 * np.pi * 0.05**2 * 1.2  # the cap below z = 0.2 r
+    assert abs(m.volume - area * t) < 0.15 * area * t
+    assert not inside_mesh(c[None], m)[0]  # the cavity stays open
+    (b,) = poisson_reconstruct_batch([(0.05 * h + c, -h)], PoissonConfig(depth=7))
+    np.testing.assert_allclose(b.vertices, m.vertices, atol=1e-5)
+
+
+def test_a_scanned_bowl_seen_from_above_gives_a_mesh(tmp_path):
+    """YCB's bowl, rendered from the head camera, completed by symmetry: Poisson used to raise
+    "inside-out" on it; now a closed mesh standing on the table, none of it below."""
+    from symjax.datasets.objects import load_object
+    from symjax.datasets.render import render_view
+    from symjax.symmetry import search_batch
+
+    view = render_view(load_object("024_bowl", cache_dir=tmp_path), 90.0, seed=0)
+    res = search_batch([view.observation])[0]
+    op = oriented_completion(res, view.camera)
+    with pytest.raises(DegenerateGeometryError, match="inside-out"):
+        poisson_reconstruct(op.points, op.normals, op.weights, PoissonConfig(depth=5, thin_shell=0))
+    mesh = poisson_reconstruct(op.points, op.normals, op.weights, PoissonConfig(depth=5),
+                               table=view.observation.table)  # fmt: skip
+    assert mesh.is_watertight and mesh.volume > 0
+    assert mesh.vertices[:, 2].min() > -1e-4
+    truth = view.true_mesh()
+    assert np.all(np.abs(mesh.extents[:2] - truth.extents[:2]) < 0.03)

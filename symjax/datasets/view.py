@@ -125,6 +125,28 @@ class View:
             meta={"path": str(getattr(kth_view, "path", ""))},
         )
 
+    def true_mesh(self, cache_dir: Any = None):
+        """The ground-truth mesh in the world frame, as posed in this view.
+
+        A view read without its object model gets the mesh from the data set (cached in
+        ``cache_dir``, default :func:`symjax.datasets.default_cache_dir`) and ``gt_pose``.
+
+        Raises:
+            InvalidInputError: A view without ground truth (real data).
+        """
+        if self.gt_mesh is not None:
+            return self.gt_mesh
+        if self.gt_pose is None:
+            raise InvalidInputError(
+                f"view {self.name!r} has no ground truth (source {self.source!r}); expected a"
+                " simulated view with gt_pose"
+            )
+        from symjax.datasets.objects import load_dataset_object
+
+        mesh = load_dataset_object(self.dataset, cache_dir).mesh.copy()
+        mesh.apply_transform(np.asarray(self.gt_pose, np.float64))
+        return mesh
+
     @property
     def points(self) -> np.ndarray:
         """The observed object points (N, 3), world frame, metres."""

@@ -99,7 +99,7 @@ class EvalConfig:
             "seed": self.seed,
             "camera": dataclasses.asdict(self.camera),
             "data": self.data,
-            "version": 2,
+            "version": 3,  # 3: completions cut at the table
         }
         text = json.dumps(keep, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:12]

@@ -100,8 +100,9 @@ def _search(observations: list, cfg: EvalConfig) -> list:
     return [res[i] if ok else None for i, ok in enumerate(res.ok)]
 
 
-def _poisson(ops: list, depth: int, cfg: EvalConfig) -> list:
-    """Meshes (or error messages) of a batch of oriented clouds at one depth."""
+def _poisson(ops: list, depth: int, cfg: EvalConfig, tables: list) -> list:
+    """Meshes (or error messages) of a batch of oriented clouds at one depth, each cut at its
+    view's table (an object stands on it: nothing of it is below)."""
     import dataclasses
 
     from symjax.surface import poisson_reconstruct_batch
@@ -111,7 +112,11 @@ def _poisson(ops: list, depth: int, cfg: EvalConfig) -> list:
     good = [i for i, op in enumerate(ops) if op is not None]
     if good:
         meshes = poisson_reconstruct_batch(
-            [ops[i] for i in good], pcfg, cfg.execution, errors="keep"
+            [ops[i] for i in good],
+            pcfg,
+            cfg.execution,
+            errors="keep",
+            tables=[tables[i] for i in good],
         )
         for i, m in zip(good, meshes, strict=True):
             out[i] = _err(m) if isinstance(m, SymjaxError) else m
@@ -157,7 +162,7 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
     built: dict[str, list] = {}  # method -> per view: a mesh or an error message
     for m in mir:
         t0 = time.perf_counter()
-        built[m] = _poisson(ops, POISSON_DEPTHS[m], config)
+        built[m] = _poisson(ops, POISSON_DEPTHS[m], config, [v.observation.table for v in views])
         share = (time.perf_counter() - t0) / n
         for i in range(n):
             timings[i][f"poisson{POISSON_DEPTHS[m]}"] = share

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from symjax._pytree import pytree_dataclass
+from symjax.errors import InvalidInputError, ShapeError
 from symjax.grasp.approach import approach_frames
 
 __all__ = ["CandidateSet", "Candidates"]
@@ -34,6 +35,40 @@ class Candidates:
 
     def __len__(self) -> int:
         return int(np.shape(self.roll)[0])
+
+    def take(self, index: Any) -> Candidates:
+        """The candidates at ``index`` (integer array, boolean mask or slice), numpy arrays."""
+        if isinstance(index, slice):
+            return dataclasses.replace(self, **{k: np.asarray(v)[index] for k, v in self._items()})
+        idx = np.asarray(index)
+        if idx.dtype == bool:
+            if idx.shape != (len(self),):
+                raise ShapeError(f"a mask must have shape ({len(self)},), got {idx.shape}")
+            idx = np.flatnonzero(idx)
+        if idx.dtype.kind not in "iu":
+            raise InvalidInputError(f"index must be integers, a mask or a slice, got {idx.dtype}")
+        idx = idx.reshape(-1)
+        if idx.size and (idx.min() < -len(self) or idx.max() >= len(self)):
+            raise InvalidInputError(f"index out of range for {len(self)} candidates")
+        return dataclasses.replace(self, **{k: np.asarray(v)[idx] for k, v in self._items()})
+
+    def __getitem__(self, index: Any) -> Candidates:
+        if isinstance(index, (int, np.integer)):
+            index = [index]
+        return self.take(index)
+
+    @staticmethod
+    def concatenate(batches: Any) -> Candidates:
+        """One batch of the candidates of several, in order."""
+        batches = list(batches)
+        if not batches or not all(isinstance(b, Candidates) for b in batches):
+            raise InvalidInputError("concatenate needs a non-empty list of Candidates")
+        names = [f.name for f in dataclasses.fields(Candidates)]
+        return Candidates(**{k: np.concatenate([np.asarray(getattr(b, k)) for b in batches])
+                             for k in names})  # fmt: skip
+
+    def _items(self):
+        return [(f.name, getattr(self, f.name)) for f in dataclasses.fields(self)]
 
     def frames(self):
         """TCP orientations, shape (N, 3, 3): columns are closing axis, y, approach."""

@@ -10,7 +10,7 @@ import jax
 import numpy as np
 
 from symjax.array_types import ArrayLike, MeshLike
-from symjax.errors import EmptyInputError, unknown_name
+from symjax.errors import EmptyInputError, InvalidInputError, unknown_name
 from symjax.execution import ExecutionConfig
 from symjax.geometry import mesh_arrays
 from symjax.grasp.backends import default_backend
@@ -19,7 +19,7 @@ from symjax.grasp.candidates import generate
 from symjax.grasp.config import CandidateConfig
 from symjax.grasp.outcomes import GraspOutcomes
 from symjax.grasp.rollout import simulate
-from symjax.grasp.scene import build_scene
+from symjax.grasp.scene import GraspScene, build_scene
 from symjax.grasp.sim_config import SimulationConfig
 
 __all__ = ["RANKINGS", "GraspPlan", "plan", "rank"]
@@ -91,6 +91,7 @@ def plan(
     method: str = "uji",
     *,
     hulls: Any = None,
+    scene: Any = None,
     table: Any = None,
     candidates: CandidateConfig | None = None,
     simulation: SimulationConfig | None = None,
@@ -108,6 +109,8 @@ def plan(
         method: Candidate generator (``"openrave"``, ``"kth"``, ``"uji"``).
         hulls: Convex hulls to simulate (a :class:`symjax.decompose.Decomposition` or a list
             of ``(vertices, faces)``); default: coacd decomposition of ``obj`` (cached).
+        scene: A prebuilt :class:`symjax.grasp.GraspScene` of this object and hand (from
+            :func:`build_scene`) to simulate in instead of building one from ``hulls``.
         table: A horizontal :class:`symjax.table.TablePlane` or a height; default: the mesh's
             lowest point.
         candidates: :class:`CandidateConfig` for the generator.
@@ -139,11 +142,16 @@ def plan(
     t1 = time.perf_counter()
     if len(cs) == 0:
         raise EmptyInputError(f"every {method} candidate was dropped ({cs.n_generated} made)")
-    if hulls is None:
-        from symjax.decompose import decompose
+    if scene is None:
+        if hulls is None:
+            from symjax.decompose import decompose
 
-        hulls = decompose((v, f))
-    scene = build_scene(hulls, hand, simulation, table=plane)
+            hulls = decompose((v, f))
+        scene = build_scene(hulls, hand, simulation, table=plane)
+    elif not isinstance(scene, GraspScene) or scene.hand.name != hand.name:
+        raise InvalidInputError(
+            "scene must be a GraspScene of the same hand (from symjax.grasp.build_scene)"
+        )
     t2 = time.perf_counter()
     backend = default_backend() if backend is None else backend
     out = simulate(None, cs.candidates, hand, backend=backend, scene=scene, execution=execution)

@@ -15,7 +15,8 @@ __all__ = ["SEGMENTS", "STATUSES", "ArmPlan", "GraspPose", "grasp_poses"]
 STATUSES = ("ok", "unreachable", "ik_failed", "no_path", "start_in_collision")
 """``ok``: every segment planned. ``unreachable``: no IK seed reaches the pre-grasp (or drop-off)
 pose within tolerance: outside the workspace. ``start_in_collision``: the pose is reachable but
-the hand itself collides there with the table or an object (the candidate's start pose is bad).
+the hand itself collides there with the table or an object (the candidate's start pose is bad),
+or its fingers would hit a neighbour or the table while they close at the grasp.
 ``ik_failed``: reachable, but every arm solution collides, or a straight-line motion (approach,
 lift) could not be tracked. ``no_path``: RRT-Connect found no collision-free transit."""
 

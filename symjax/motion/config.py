@@ -30,6 +30,8 @@ class MotionConfig:
             metres.
         check_margin: A configuration collides when a robot geom comes closer than this to the
             table, an obstacle or another robot link (OMPL's validity check), metres.
+        carried_margin: The same for a held object against the table and the other objects:
+            larger, since the object may slip or swing in the hand while it is carried, metres.
         cartesian_step: Spacing of the waypoints of a straight-line TCP motion, metres.
         cartesian_iterations: Most IK steps per waypoint.
         cartesian_tolerance: A straight-line motion fails when the TCP ends farther than this
@@ -37,13 +39,19 @@ class MotionConfig:
         lift_height: Lift after the grasp, along the table normal, metres (paper: 10 cm).
         planner_time: RRT-Connect time limit per query, seconds.
         planner_range: RRT-Connect extension length in joint space, radians.
-        resolution: Joint-space step between collision checks along a motion, radians.
+        resolution: Joint-space step of OMPL's own motion checks while it searches, radians.
+        check_step: The straight lines and the found paths are checked again so densely that no
+            robot point moves farther than this between two checks, metres (below
+            ``check_margin``, so that nothing passes through a thin obstacle between checks).
         simplify_time: Path shortcutting time per query, seconds.
         velocity_scale: Fraction of the arm's joint speed limits the trajectory uses.
         acceleration_scale: Fraction of its acceleration limits.
+        carry_scale: Further fraction of both while the object is held (lift, transfer): a
+            grasp tested by a lift and a shake can still slip under the arm's full accelerations.
         sample_dt: Spacing of the trajectory samples, seconds.
         close_time: Hand closing, seconds.
-        release_time: Hand opening at the drop-off, seconds.
+        release_time: Hand opening at the drop-off, seconds: the command opens in the first
+            third, the fingers then finish opening before the return.
         seed: Seed of the IK restarts.
     """
 
@@ -57,6 +65,7 @@ class MotionConfig:
     clearance: float = 0.005
     detection_distance: float = 0.05
     check_margin: float = 0.005
+    carried_margin: float = 0.02
     cartesian_step: float = 0.01
     cartesian_iterations: int = 20
     cartesian_tolerance: float = 0.005
@@ -64,12 +73,14 @@ class MotionConfig:
     planner_time: float = 1.0
     planner_range: float = 0.5
     resolution: float = 0.02
+    check_step: float = 0.004
     simplify_time: float = 0.05
     velocity_scale: float = 0.5
     acceleration_scale: float = 0.5
+    carry_scale: float = 0.5
     sample_dt: float = 0.01
     close_time: float = 1.0
-    release_time: float = 0.5
+    release_time: float = 1.5
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -78,16 +89,16 @@ class MotionConfig:
             "position_tolerance", "orientation_tolerance", "ik_iterations", "ik_dt",
             "detection_distance", "cartesian_step", "cartesian_iterations",
             "cartesian_tolerance", "planner_time", "planner_range", "resolution",
-            "sample_dt", "close_time", "release_time",
+            "check_step", "sample_dt", "close_time", "release_time",
         )  # fmt: skip
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ConfigError(f"{name} = {getattr(self, name)!r}; expected > 0")
         for name in ("ik_restarts", "ik_damping", "posture_cost", "clearance", "check_margin",
-                     "lift_height", "simplify_time"):  # fmt: skip
+                     "carried_margin", "lift_height", "simplify_time"):  # fmt: skip
             if getattr(self, name) < 0:
                 raise ConfigError(f"{name} = {getattr(self, name)!r}; expected >= 0")
-        for name in ("velocity_scale", "acceleration_scale"):
+        for name in ("velocity_scale", "acceleration_scale", "carry_scale"):
             if not 0 < getattr(self, name) <= 1:
                 raise ConfigError(f"{name} = {getattr(self, name)!r}; expected in (0, 1]")
         if self.detection_distance <= self.clearance:

@@ -11,6 +11,7 @@ import numpy as np
 
 from symjax.errors import InvalidInputError, config_or_default
 from symjax.motion.arm_plan import ArmPlan, GraspPose, grasp_poses
+from symjax.motion.closing import closing_contacts
 from symjax.motion.config import MotionConfig
 from symjax.motion.ik import ArmIK, tcp_error
 from symjax.motion.planning_scene import PlanningScene
@@ -37,6 +38,15 @@ def _hand_env_contact(scene: PlanningScene, contacts) -> bool:
 
 def _check_start(scene: PlanningScene, start: Any, preshape: int) -> np.ndarray:
     q0 = scene.full_q(scene.robot.home if start is None else start, preshape)
+    n = scene.robot.n_arm
+    lo, hi = scene.scene_model().model.jnt_range[:n].T
+    out = np.flatnonzero((q0[:n] < lo - 1e-9) | (q0[:n] > hi + 1e-9))
+    if len(out):
+        j = int(out[0])
+        raise InvalidInputError(
+            f"start joint {j} is {q0[j]:.4f} rad, outside its range [{lo[j]:.4f}, {hi[j]:.4f}];"
+            " expected a configuration within the joint limits"
+        )
     col = scene.collisions(q0)
     if col:
         pairs = ", ".join(f"{a}-{b} ({1e3 * d:.1f} mm)" for a, b, d in col[:4])
@@ -63,13 +73,18 @@ class _Builder:
         self.count = 0
         self.t_end = 0.0
 
-    def move(self, name: str, path: np.ndarray, hand: float, corners: bool) -> None:
-        t, q = time_path(np.asarray(path)[:, : self.n], self.vmax, self.amax, self.dt, corners)
+    def move(self, name: str, path: np.ndarray, hand: float, corners: bool,
+             scale: float = 1.0) -> None:  # fmt: skip
+        t, q = time_path(np.asarray(path)[:, : self.n], scale * self.vmax, scale * self.amax,
+                         self.dt, corners)  # fmt: skip
         self._add(name, t, q, np.full(len(t), hand))
 
-    def hold(self, name: str, q: np.ndarray, seconds: float, h0: float, h1: float) -> None:
+    def hold(self, name: str, q: np.ndarray, seconds: float, h0: float, h1: float,
+             ramp: float = 1.0) -> None:  # fmt: skip
+        """The arm still for ``seconds``; the hand command goes from h0 to h1 in the first
+        ``ramp`` share of them and then holds."""
         t = np.arange(0.0, seconds + 1e-9, self.dt)
-        s = np.clip(t / seconds, 0.0, 1.0)
+        s = np.clip(t / (ramp * seconds), 0.0, 1.0)
         self._add(name, t, np.repeat(q[None, : self.n], len(t), 0), h0 + (h1 - h0) * s)
 
     def _add(self, name, t, q, h) -> None:
@@ -154,6 +169,11 @@ def _plan(
         why = f"a contact ahead: {contacts}" if col else "the collision limit or a joint limit"
         return done("ik_failed", f"approach stopped {1e3 * errs['grasp'][0]:.1f} mm from the"
                     f" grasp pose ({why})", q_g[: len(nan)])  # fmt: skip
+    hits = closing_contacts(scene, q_g, grasp.preshape)
+    if hits:
+        pairs = ", ".join(f"{a}-{b}" for a, b, _ in hits[:3])
+        return done("start_in_collision", f"the closing fingers hit the clutter: {pairs}",
+                    q_g[: len(nan)])  # fmt: skip
     out.move("approach", np.concatenate([q_pre[None], np.stack(path)]), 0.0, corners=False)
     out.hold("close", q_g, config.close_time, 0.0, 1.0)
 
@@ -170,10 +190,13 @@ def _plan(
             why = ", ".join(f"{a}-{b}" for a, b, _ in col[:3]) or f"{1e3 * ep:.1f} mm short"
             return done("ik_failed", f"lift: {why}", q_g[: len(nan)])
         q_lift = path[-1]
-        out.move("lift", np.concatenate([q_g[None], np.stack(path)]), 1.0, corners=False)
+        out.move("lift", np.concatenate([q_g[None], np.stack(path)]), 1.0, corners=False,
+                 scale=config.carry_scale)  # fmt: skip
 
         t0 = time.perf_counter()
         drop = np.asarray(scene.robot.dropoff, np.float64)
+        # Position only, seeded at the lift: the nearest arm solution keeps the wrist as it was
+        # (holding the grasp's orientation there made long wrist swings that shook objects out).
         res = ik.solve(drop, R_g, q_lift, orientation=False)
         clock("dropoff", t0)
         if not res.converged:
@@ -187,14 +210,19 @@ def _plan(
         planners["transfer"] = tr.planner
         if not tr.solved:
             return done("no_path", f"transfer: {tr.reason}", q_g[: len(nan)])
-        out.move("transfer", tr.path, 1.0, corners=True)
-        out.hold("release", q_drop, config.release_time, 1.0, -1.0)
+        out.move("transfer", tr.path, 1.0, corners=True, scale=config.carry_scale)
+        # Open in the first third, then wait: the return is planned with the hand open, and
+        # half-open fingers hang lower than open ones.
+        out.hold("release", q_drop, config.release_time, 1.0, -1.0, ramp=1.0 / 3.0)
     finally:
         scene.detach()
 
-    # The released object is gone from the table: the return may pass where it stood.
+    # The released object is gone from the table: the return may pass where it stood. The hand
+    # is open now (the release opened it), so the return is checked with open fingers.
+    n = scene.robot.n_arm
+    q_drop_open, q_home_open = (scene.full_q(q[:n], "open") for q in (q_drop, q0))
     t0 = time.perf_counter()
-    tr = plan_transit(scene, q_drop, q0, config, allow=(("robot", target),))
+    tr = plan_transit(scene, q_drop_open, q_home_open, config, allow=(("robot", target),))
     clock("return", t0)
     planners["return"] = tr.planner
     if not tr.solved:
@@ -267,6 +295,7 @@ def plan_arm_batch(
             if not (np.all(np.isfinite(p)) and np.all(np.isfinite(R))):
                 raise InvalidInputError(f"the {what} pose of candidate {g.index} has NaN or inf")
     scene.margin = config.check_margin
+    scene.carried_margin = config.carried_margin
     ik = ArmIK(scene, config)
     plans = []
     for g in grasps:

@@ -16,13 +16,21 @@ import mujoco
 import numpy as np
 
 from symjax.array_types import ArrayLike
-from symjax.errors import EmptyInputError, InvalidInputError, ShapeError, unknown_name
+from symjax.errors import InvalidInputError, ShapeError, unknown_name
 from symjax.geometry import as_pose
+from symjax.motion.scene_model import (
+    CARRIED,
+    SceneModel,
+    add_hulls,
+    classify,
+    has_geom,
+    hull_list,
+    mat_to_quat,
+)
 
-__all__ = ["PlanningScene", "SceneModel"]
+__all__ = ["PlanningScene"]
 
 _ENV_FIXED = ("table", "floor", "pedestal")
-_CARRIED = "carried"
 
 
 @dataclasses.dataclass
@@ -30,57 +38,6 @@ class _Object:
     hulls: list[tuple[np.ndarray, np.ndarray]]
     pos: np.ndarray
     quat: np.ndarray
-
-
-@dataclasses.dataclass(eq=False)
-class SceneModel:
-    """One compiled variant of a :class:`PlanningScene` and its geom groups.
-
-    Attributes:
-        model: The compiled model (arm, hand, table, objects; the attached object under the
-            hand).
-        data: Scratch data for collision checks.
-        arm_geoms, hand_geoms: Geom ids of the arm links and of the hand, (k,) int.
-        carried_geoms: Geoms of the attached object, (k,) int (empty when nothing is attached).
-        fixed_geoms: Table, floor and pedestal, (k,) int.
-        object_geoms: Per object name, its geom ids.
-        robot_mask: Per geom: arm, hand or carried, (ngeom,) bool.
-        mocap: Per object name, its mocap index.
-        carried_body: Body id of the attachment body, or -1.
-        tcp_site: Site id of the TCP.
-    """
-
-    model: mujoco.MjModel
-    data: mujoco.MjData
-    arm_geoms: np.ndarray
-    hand_geoms: np.ndarray
-    carried_geoms: np.ndarray
-    fixed_geoms: np.ndarray
-    object_geoms: dict[str, np.ndarray]
-    robot_mask: np.ndarray
-    mocap: dict[str, int]
-    carried_body: int
-    tcp_site: int
-
-
-def _hull_list(hulls: Any) -> list[tuple[np.ndarray, np.ndarray]]:
-    from symjax.decompose import Decomposition
-
-    if isinstance(hulls, Decomposition):
-        hulls = hulls.hulls
-    if not isinstance(hulls, (list, tuple)) or not hulls:
-        raise EmptyInputError(
-            "an object needs a Decomposition or a non-empty list of (vertices, faces) hulls"
-        )
-    out = []
-    for v, f in hulls:
-        v, f = np.asarray(v, np.float64), np.asarray(f)
-        if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or f.ndim != 2 or f.shape[1] != 3:
-            raise ShapeError(f"a hull needs vertices (V>=4, 3) and faces (F, 3), got {v.shape}")
-        if not np.all(np.isfinite(v)):
-            raise InvalidInputError("hull vertices contain NaN or inf")
-        out.append((v, f.astype(np.int64)))
-    return out
 
 
 class PlanningScene:
@@ -91,6 +48,8 @@ class PlanningScene:
         objects: Optional ``{name: hulls}`` to add (see :meth:`add_object`), world frame.
         target: Name of the object to grasp, or None.
         margin: A robot geom closer than this to anything counts as a collision, metres.
+        carried_margin: The same for the attached object: larger, because where it sits in the
+            hand is only known to the slip of the grasp, metres.
 
     Raises:
         UnknownNameError: An unknown robot.
@@ -102,6 +61,7 @@ class PlanningScene:
         objects: dict[str, Any] | None = None,
         target: str | None = None,
         margin: float = 0.005,
+        carried_margin: float = 0.02,
     ):
         from symjax import robots
         from symjax.hands import load as load_hand
@@ -109,6 +69,7 @@ class PlanningScene:
         self.robot = robot if isinstance(robot, robots.Robot) else robots.load(robot)
         self.hand = load_hand(self.robot.hand)
         self._margin = float(margin)
+        self._carried_margin = float(carried_margin)
         self._objects: dict[str, _Object] = {}
         self._version = 0
         self._attached: str | None = None
@@ -128,6 +89,17 @@ class PlanningScene:
     def margin(self, value: float) -> None:
         if float(value) != self._margin:
             self._margin = float(value)
+            self._version += 1
+
+    @property
+    def carried_margin(self) -> float:
+        """Contact distance that counts as a collision for the attached object, metres."""
+        return self._carried_margin
+
+    @carried_margin.setter
+    def carried_margin(self, value: float) -> None:
+        if float(value) != self._carried_margin:
+            self._carried_margin = float(value)
             self._version += 1
 
     # --- objects ------------------------------------------------------------------------------
@@ -166,7 +138,7 @@ class PlanningScene:
         if name in self._objects:
             raise InvalidInputError(f"object {name!r} is already in the scene")
         pos, R = as_pose(np.eye(4) if pose is None else pose)
-        self._objects[name] = _Object(_hull_list(hulls), pos, _quat(R))
+        self._objects[name] = _Object(hull_list(hulls), pos, mat_to_quat(R))
         self._version += 1
 
     def remove_object(self, name: str) -> None:
@@ -183,7 +155,7 @@ class PlanningScene:
         """Moves an object rigidly (no recompilation); ``pose`` as in :meth:`add_object`."""
         self._check(name)
         pos, R = as_pose(pose)
-        self._objects[name].pos, self._objects[name].quat = pos, _quat(R)
+        self._objects[name].pos, self._objects[name].quat = pos, mat_to_quat(R)
 
     def object_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """``(position (3,), rotation (3, 3))`` of an object's frame in the world."""
@@ -207,7 +179,7 @@ class PlanningScene:
         hb = sm.model.body(self.robot.hand_prefix + self.hand.base_body).id
         Rh, ph = d.xmat[hb].reshape(3, 3), d.xpos[hb]
         po, Ro = self.object_pose(name)
-        self._attach_pose = (Rh.T @ (po - ph), _quat(Rh.T @ Ro))
+        self._attach_pose = (Rh.T @ (po - ph), mat_to_quat(Rh.T @ Ro))
         self._attached = name
 
     def detach(self, q: ArrayLike | None = None) -> None:
@@ -221,7 +193,7 @@ class PlanningScene:
             self._forward(sm, q)
             b = sm.carried_body
             self._objects[name].pos = sm.data.xpos[b].copy()
-            self._objects[name].quat = _quat(sm.data.xmat[b].reshape(3, 3))
+            self._objects[name].quat = mat_to_quat(sm.data.xmat[b].reshape(3, 3))
         self._attached = None
 
     def _check(self, name: str) -> None:
@@ -251,11 +223,13 @@ class PlanningScene:
             if name == attached:
                 continue
             body = spec.worldbody.add_body(name=f"obj/{name}", mocap=True)
-            _add_hulls(spec, body, f"obj/{name}", obj.hulls, rgba=[0.3, 0.6, 0.9, 1])
+            add_hulls(spec, body, f"obj/{name}", obj.hulls, rgba=[0.3, 0.6, 0.9, 1])
         if attached is not None:
             hb = spec.body(prefix + self.hand.base_body)
-            body = hb.add_body(name=_CARRIED)
-            _add_hulls(spec, body, _CARRIED, self._objects[attached].hulls, rgba=[0.9, 0.5, 0.2, 1])
+            body = hb.add_body(name=CARRIED)
+            add_hulls(spec, body, CARRIED, self._objects[attached].hulls, rgba=[0.9, 0.5, 0.2, 1])
+            for g in body.geoms:
+                g.margin = max(self.margin, self.carried_margin)
         m = spec.compile()
         d = mujoco.MjData(m)
         body_names = [m.body(i).name for i in range(m.nbody)]
@@ -264,12 +238,12 @@ class PlanningScene:
             i for i in range(m.nbody) if body_names[i].startswith("link")
         }
         hand_bodies = {i for i in range(m.nbody) if body_names[i].startswith(prefix)}
-        carried = m.body(_CARRIED).id if attached is not None else -1
+        carried = m.body(CARRIED).id if attached is not None else -1
         ids = np.arange(m.ngeom)
         arm = ids[np.isin(gb, list(arm_bodies))]
         hand = ids[np.isin(gb, list(hand_bodies))]
         carried_g = ids[gb == carried] if carried >= 0 else np.zeros(0, int)
-        fixed = np.array([m.geom(n).id for n in _ENV_FIXED if _has_geom(m, n)])
+        fixed = np.array([m.geom(n).id for n in _ENV_FIXED if has_geom(m, n)])
         objs, mocap = {}, {}
         for name in self._objects:
             if name == attached:
@@ -342,53 +316,12 @@ class PlanningScene:
         g2 = d.contact.geom2[: d.ncon]
         dist = d.contact.dist[: d.ncon]
         # Some colliders (box-capsule) also return contacts a little beyond the margin.
-        bad = _classify(sm, g1, g2, allow) & (dist < self._margin)
+        carried = np.isin(g1, sm.carried_geoms) | np.isin(g2, sm.carried_geoms)
+        limit = np.where(carried, max(self._margin, self._carried_margin), self._margin)
+        bad = classify(sm, g1, g2, allow) & (dist < limit)
         return [(m.geom(a).name, m.geom(b).name, float(x))
                 for a, b, x, k in zip(g1, g2, dist, bad, strict=True) if k]  # fmt: skip
 
     def is_valid(self, q: ArrayLike, allow: tuple[tuple[str, str], ...] = ()) -> bool:
         """No collision at ``q`` (see :meth:`collisions`); a Python bool."""
         return not self.collisions(q, allow)
-
-
-def _mask(n: int, ids) -> np.ndarray:
-    out = np.zeros(n, bool)
-    out[np.asarray(ids, int)] = True
-    return out
-
-
-def _classify(sm: SceneModel, g1, g2, allow) -> np.ndarray:
-    n = len(sm.robot_mask)
-    bad = sm.robot_mask[g1] | sm.robot_mask[g2]
-    hand, carried = _mask(n, sm.hand_geoms), _mask(n, sm.carried_geoms)
-    # The held object touches the fingers by design.
-    bad &= ~((carried[g1] & hand[g2]) | (carried[g2] & hand[g1]))
-    parts = {"hand": hand, "carried": carried, "robot": sm.robot_mask}
-    for part, other in allow:
-        if other == "table":
-            env = _mask(n, sm.fixed_geoms[:1])
-        elif other in sm.object_geoms:
-            env = _mask(n, sm.object_geoms[other])
-        else:
-            continue
-        mover = parts[part]
-        bad &= ~((mover[g1] & env[g2]) | (mover[g2] & env[g1]))
-    return bad
-
-
-def _has_geom(m: mujoco.MjModel, name: str) -> bool:
-    return mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) >= 0
-
-
-def _quat(R: np.ndarray) -> np.ndarray:
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R, np.float64).ravel())
-    return q
-
-
-def _add_hulls(spec, body, prefix: str, hulls, rgba) -> None:
-    for i, (v, f) in enumerate(hulls):
-        mesh = f"{prefix}/hull{i}"
-        spec.add_mesh(name=mesh, uservert=v.ravel(), userface=f.ravel())
-        body.add_geom(name=mesh, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh,
-                      rgba=rgba, density=0.0)  # fmt: skip

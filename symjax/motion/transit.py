@@ -16,7 +16,7 @@ import numpy as np
 from symjax.motion.config import MotionConfig
 from symjax.motion.planning_scene import PlanningScene
 
-__all__ = ["TransitResult", "plan_transit", "segment_valid"]
+__all__ = ["TransitResult", "levers", "plan_transit", "segment_valid"]
 
 _SEEDED = False
 
@@ -40,12 +40,33 @@ class TransitResult:
     reason: str = ""
 
 
-def segment_valid(scene: PlanningScene, a: np.ndarray, b: np.ndarray, resolution: float,
-                  allow: tuple = ()) -> bool:  # fmt: skip
-    """Whether the joint-space line from ``a`` to ``b`` is collision-free (checked every
-    ``resolution`` radians on the arm's largest joint step)."""
+def levers(scene: PlanningScene) -> np.ndarray:
+    """Per arm joint, an upper bound of how far a robot point can be from its axis, metres (n,).
+
+    The longest chain of link offsets below the joint's body plus that link's farthest geom: a
+    joint step ``dq`` moves no robot point more than ``lever * |dq|``.
+    """
+    m = scene.scene_model().model
+    reach = np.zeros(m.nbody)
+    for g in range(m.ngeom):
+        b = int(m.geom_bodyid[g])
+        reach[b] = max(reach[b], float(np.linalg.norm(m.geom_pos[g]) + m.geom_rbound[g]))
+    for b in range(m.nbody - 1, 0, -1):  # children come after their parents
+        p = int(m.body_parentid[b])
+        if p > 0:
+            reach[p] = max(reach[p], float(np.linalg.norm(m.body_pos[b])) + reach[b])
+    return np.array([reach[int(m.jnt_bodyid[i])] for i in range(scene.robot.n_arm)])
+
+
+def segment_valid(scene: PlanningScene, a: np.ndarray, b: np.ndarray, step: float,
+                  allow: tuple = (), lever: np.ndarray | None = None) -> bool:  # fmt: skip
+    """Whether the joint-space line from ``a`` to ``b`` is collision-free, checked so densely
+    that no robot point moves more than ``step`` metres between two checks (by :func:`levers`).
+    """
     n = scene.robot.n_arm
-    steps = max(1, int(np.ceil(np.abs(b[:n] - a[:n]).max() / resolution)))
+    lever = levers(scene) if lever is None else lever
+    reach = float(np.abs(b[:n] - a[:n]) @ lever)
+    steps = max(1, int(np.ceil(reach / step)))
     for t in np.linspace(0.0, 1.0, steps + 1)[1:]:
         if not scene.is_valid(a + t * (b - a), allow):
             return False
@@ -94,7 +115,8 @@ def plan_transit(
             why = f"the {name} is in collision: {col}"
             return TransitResult(np.zeros((0, len(start))), False, "none",
                                  time.perf_counter() - t0, why)  # fmt: skip
-    if direct_first and segment_valid(scene, start, goal, config.resolution, allow):
+    lever = levers(scene)
+    if direct_first and segment_valid(scene, start, goal, config.check_step, allow, lever):
         return TransitResult(np.stack([start, goal]), True, "direct", time.perf_counter() - t0)
     ob, og = _ompl()
     n = scene.robot.n_arm
@@ -140,7 +162,7 @@ def plan_transit(
             path[k, :n] = [st[i] for i in range(n)]
         path[0], path[-1] = start, goal
         # OMPL checks motions at its own resolution; re-check densely before trusting it.
-        if all(segment_valid(scene, a, b, config.resolution, allow)
+        if all(segment_valid(scene, a, b, config.check_step, allow, lever)
                for a, b in zip(path[:-1], path[1:], strict=True)):  # fmt: skip
             return TransitResult(path, True, "rrt_connect", time.perf_counter() - t0)
         reason = "every path found collides between waypoints when re-checked densely"

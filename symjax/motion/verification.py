@@ -9,6 +9,7 @@ Objects are free bodies of convex hulls, so the target can be grasped, lifted an
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from typing import Any
 
@@ -19,6 +20,7 @@ from symjax.errors import InvalidInputError
 from symjax.geometry import rotation_angle_np
 from symjax.motion.arm_plan import ArmPlan
 from symjax.motion.planning_scene import PlanningScene
+from symjax.motion.scene_model import hull_list
 
 __all__ = ["ReplayReport", "replay", "replay_model"]
 
@@ -37,6 +39,9 @@ class ReplayReport:
         object_contacts: Contacts of the held target with the table or other objects from the
             lift to the release: ``(target geom, other geom, first time s, penetration m)``.
         lifted: The target rose at least half the lift height during the lift.
+        slip: Largest displacement of the target's centre of mass in the TCP frame from the
+            start of the lift to the release, metres (NaN without a target); over a few
+            centimetres the object left the hand.
         target_final: Final position of the target's centre of mass (3,), metres (NaN
             without a target).
         seconds: Wall time of the replay.
@@ -49,6 +54,7 @@ class ReplayReport:
     collisions: tuple[tuple[str, str, float, float], ...]
     object_contacts: tuple[tuple[str, str, float, float], ...]
     lifted: bool
+    slip: float
     target_final: np.ndarray
     seconds: float
     snapshots: tuple[np.ndarray, ...] = ()
@@ -58,31 +64,68 @@ class ReplayReport:
         return not self.collisions
 
 
-def replay_model(scene: PlanningScene, objects: dict[str, Any] | None = None) -> mujoco.MjModel:
+def replay_model(
+    scene: PlanningScene, objects: dict[str, Any] | None = None, simulation: Any = None
+) -> mujoco.MjModel:
     """The robot scene with gravity compensation and the objects as free bodies.
+
+    The contacts are those of the grasp rollouts (:class:`symjax.grasp.SimulationConfig`: the
+    friction impedance ratio, torsional friction on the hand, the objects' friction and
+    density): with MuJoCo's default impedance ratio a held object crept out of the hand within
+    seconds of carrying.
 
     Args:
         scene: The planning scene (robot and object poses).
         objects: ``{name: hulls}`` to simulate instead of the planning hulls (the true shapes
             when the plan was made on completed ones); same frames as the scene's objects.
+        simulation: A :class:`symjax.grasp.SimulationConfig` (default settings when None).
     """
     from symjax.decompose.mjcf_object import object_spec
+    from symjax.grasp.sim_config import SimulationConfig
 
+    sim = simulation if simulation is not None else SimulationConfig()
     spec = scene.robot.spec()
+    spec.option.impratio = sim.impratio
+    spec.option.cone = (mujoco.mjtCone.mjCONE_ELLIPTIC if sim.cone == "elliptic"
+                        else mujoco.mjtCone.mjCONE_PYRAMIDAL)  # fmt: skip
     for b in spec.bodies:
         if b.name.startswith(("link", scene.robot.hand_prefix)):
             b.gravcomp = 1.0
-    from symjax.motion.planning_scene import _hull_list
-
+    for g in spec.geoms:
+        if g.name.startswith(scene.robot.hand_prefix) and sim.finger_torsion > 0:
+            g.condim = 4
+            g.friction = [g.friction[0], sim.finger_torsion, g.friction[2]]
     for name in scene.object_names:
-        hulls = _hull_list((objects or {}).get(name, scene._objects[name].hulls))
+        hulls = hull_list((objects or {}).get(name, scene._objects[name].hulls))
         p, R = scene.object_pose(name)
         world = [(v @ R.T + p, f) for v, f in hulls]
         # The free joint sits at the body origin: put it at the object's centre, not at the
         # world origin a metre away (a far joint made the contact solver launch the object).
         c = np.concatenate([v for v, _ in world]).mean(axis=0)
-        object_spec([(v - c, f) for v, f in world], name=f"obj/{name}", pos=c, spec=spec)
+        object_spec([(v - c, f) for v, f in world], name=f"obj/{name}", pos=c, spec=spec,
+                    mass=sim.object_mass, density=sim.object_density,
+                    friction=(sim.object_friction, 0.005, 0.0001))  # fmt: skip
     return spec.compile()
+
+
+def _feedforward(m: mujoco.MjModel, plan: ArmPlan, dq: np.ndarray, hand_q) -> np.ndarray:
+    """Arm torques ``M(q) ddq + c(q, dq)`` of the planned motion (gravity is compensated), (N, n).
+
+    Inverse dynamics without contacts, hand in its pre-shape, objects at rest.
+    """
+    n = plan.q.shape[1]
+    ddq = np.gradient(dq, plan.t, axis=0) if len(plan.t) > 1 else np.zeros_like(dq)
+    m2 = copy.copy(m)
+    m2.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    d2 = mujoco.MjData(m2)
+    mujoco.mj_resetDataKeyframe(m2, d2, m2.key("home").id)
+    d2.qpos[n : n + len(hand_q)] = hand_q
+    out = np.zeros_like(plan.q)
+    for i in range(len(plan.t)):
+        d2.qpos[:n], d2.qvel[:n], d2.qacc[:n] = plan.q[i], dq[i], ddq[i]
+        mujoco.mj_inverse(m2, d2)
+        out[i] = d2.qfrc_inverse[:n]
+    return out
 
 
 def replay(
@@ -126,6 +169,9 @@ def replay(
     c_open = np.asarray(hand.preshape_ctrl, np.float64)[hand.preshape_index("open")]
     c_closed = np.asarray(hand.closed_ctrl(pre), np.float64)
     dq = np.gradient(plan.q, plan.t, axis=0) if len(plan.t) > 1 else np.zeros_like(plan.q)
+    # Servo target offset by the planned motion's torque over kp (computed-torque feed-forward):
+    # without it the arm lags its trajectory by M ddq / kp, centimetres at the hand.
+    ff = _feedforward(m, plan, dq, np.asarray(hand.preshape_qpos)[pre]) / kp
     gb = m.geom_bodyid
     names = [m.body(i).name for i in range(m.nbody)]
     robot_g = np.array([names[b].startswith(("link", robot.hand_prefix)) for b in gb])
@@ -140,6 +186,7 @@ def replay(
     lift_t0, lift_t1 = times.get("lift", (np.inf, np.inf))
     release_t0 = times.get("release", (np.inf, np.inf))[0]
     z0 = lift_z = np.nan
+    rel0, slip = None, 0.0 if target else np.nan
     col: dict[tuple[int, int], list[float]] = {}
     ocol: dict[tuple[int, int], list[float]] = {}
     max_err, tcp_err, rot_err = 0.0, np.nan, np.nan
@@ -149,7 +196,7 @@ def replay(
     for _ in range(steps):
         t = d.time
         i = min(int(np.searchsorted(plan.t, t)), len(plan.t) - 1)
-        d.ctrl[:n] = plan.q[i] + (kv / kp) * dq[i]
+        d.ctrl[:n] = plan.q[i] + (kv / kp) * dq[i] + ff[i]
         h = plan.hand[i]
         d.ctrl[n:] = c_pre + h * (c_closed - c_pre) if h >= 0 else c_pre - h * (c_open - c_pre)
         mujoco.mj_step(m, d)
@@ -166,6 +213,11 @@ def replay(
                 z0 = float(d.xipos[tgt_body][2])
             if np.isnan(lift_z) and d.time >= lift_t1:
                 lift_z = float(d.xipos[tgt_body][2])
+            if lift_t0 <= d.time < release_t0:
+                Rt = d.site_xmat[tcp].reshape(3, 3)
+                rel = Rt.T @ (d.xipos[tgt_body] - d.site_xpos[tcp])
+                rel0 = rel if rel0 is None else rel0
+                slip = max(slip, float(np.linalg.norm(rel - rel0)))
         for c in d.contact[: d.ncon]:
             a, b = int(c.geom1), int(c.geom2)
             if c.dist >= 0:
@@ -195,6 +247,7 @@ def replay(
         collisions=listing(col),
         object_contacts=listing(ocol),
         lifted=lifted,
+        slip=slip,
         target_final=d.xipos[tgt_body].copy() if tgt_body >= 0 else np.full(3, np.nan),
         seconds=time.perf_counter() - t_wall,
         snapshots=tuple(shots),

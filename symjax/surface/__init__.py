@@ -13,6 +13,7 @@ from symjax.surface.normals import (
     OrientedPoints,
     estimate_normals,
     oriented_completion,
+    oriented_observation,
     outlier_mask,
 )
 from symjax.surface.poisson import poisson_reconstruct, poisson_reconstruct_batch
@@ -25,6 +26,7 @@ __all__ = [
     "delaunay_mesh",
     "estimate_normals",
     "oriented_completion",
+    "oriented_observation",
     "outlier_mask",
     "poisson_reconstruct",
     "poisson_reconstruct_batch",

@@ -59,6 +59,11 @@ class PoissonConfig:
             plausibility; the reference code's ``-withPlaus``).
         min_points: Fewer valid points than this raise :class:`~symjax.errors.EmptyInputError`.
         keep_largest: Keep only the largest connected component of the iso-surface.
+        thin_shell: Seen from above, a bowl or an open cup shows mostly its inner surface,
+            normals into the cavity: the indicator of such an open sheet is inside-out. With
+            ``thin_shell`` > 0 such a cloud is solved again as a wall of this thickness (cells,
+            at least 3 mm): each point gets a twin that far behind it, normal reversed. 0
+            raises instead.
     """
 
     depth: int = 7
@@ -68,6 +73,7 @@ class PoissonConfig:
     use_weights: bool = True
     min_points: int = 20
     keep_largest: bool = True
+    thin_shell: float = 2.5
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -75,6 +81,7 @@ class PoissonConfig:
             isinstance(self.depth, int) and 2 <= self.depth <= 8,
             f"depth must be an int in [2, 8] (paper: 5 or 7), got {self.depth!r}",
         )
+        _require(self.thin_shell >= 0, f"thin_shell must be >= 0 cells, got {self.thin_shell!r}")
         _require(self.padding > 1.0, f"padding must be > 1, got {self.padding!r}")
         _require(self.smoothing >= 0, f"smoothing must be >= 0 cells, got {self.smoothing!r}")
         _require(

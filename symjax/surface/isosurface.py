@@ -6,16 +6,24 @@ so that the surface is always closed; the largest connected component is kept.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from symjax.errors import (
     DegenerateGeometryError,
     ShapeError,
 )
+from symjax.geometry import is_closed
 from symjax.surface.config import PoissonConfig
 from symjax.surface.poisson_grid import PoissonGrid
 
-__all__ = ["grid_to_mesh"]
+__all__ = ["InsideOutError", "grid_to_mesh"]
+
+
+class InsideOutError(DegenerateGeometryError):
+    """The indicator is larger far from the points than on them: normals into the object, or
+    an open sheet seen from its concave side (a bowl from above)."""
 
 
 def _largest_component(verts: np.ndarray, faces: np.ndarray):
@@ -43,25 +51,33 @@ def _signed_volume(verts: np.ndarray, faces: np.ndarray) -> float:
     return float(np.einsum("ij,ij->", a, np.cross(b, c)) / 6.0)
 
 
-def _is_closed(faces: np.ndarray, n_vertices: int) -> bool:
-    """Watertight with consistent winding: each directed edge once, and its reverse once.
+def _clip_below(chi: np.ndarray, grid: PoissonGrid, table: Any, iso: float, span: float):
+    """``min(chi, iso + s h)``, h the height above the table: the intersection with the half
+    space above it. The slope ``s`` is one ``span`` per cell, so the term is outside one cell
+    below the plane and has no effect one cell above; being linear in h, marching cubes puts
+    its crossing exactly on the plane."""
+    n = np.asarray(table.normal, np.float64)
+    n = n / np.linalg.norm(n)
+    cell = float(grid.cell)
+    axes = [np.arange(k) * cell for k in chi.shape]
+    origin = np.asarray(grid.origin, np.float64)
+    h = (
+        float(n @ origin + table.offset)
+        + n[0] * axes[0][:, None, None] + n[1] * axes[1][None, :, None]
+        + n[2] * axes[2][None, None, :]
+    )  # fmt: skip
+    return np.minimum(chi, (iso + span / cell * h).astype(chi.dtype))
 
-    The same test as ``trimesh``'s ``is_watertight and is_winding_consistent``, several times
-    cheaper on marching-cubes meshes of 10^5 faces.
-    """
-    a = faces.reshape(-1)
-    b = np.roll(faces, -1, axis=1).reshape(-1)
-    fwd = np.sort(a.astype(np.int64) * n_vertices + b)
-    rev = np.sort(b.astype(np.int64) * n_vertices + a)
-    return bool(np.all(fwd[1:] != fwd[:-1]) and np.array_equal(fwd, rev))
 
-
-def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig):
+def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None):
     """Marching cubes of one solved grid into a closed, outward-oriented mesh.
 
     Args:
         grid: A single-view :class:`PoissonGrid`.
         config: Configuration (``keep_largest``).
+        table: A :class:`~symjax.table.TablePlane` the object stands on, or None. The surface
+            is cut there and closed by the plane: the indicator is intersected with the half
+            space above the table, so the mesh stays closed and its bottom is flat.
 
     Returns:
         A watertight ``trimesh.Trimesh`` in world coordinates, metres.
@@ -88,10 +104,12 @@ def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig):
     )
     if np.median(border) >= iso:
         # Far from the points chi must be "outside"; otherwise the normals point inwards.
-        raise DegenerateGeometryError(
+        raise InsideOutError(
             "the indicator function is inside-out (larger than the iso-value far from the points):"
             " the normals point into the object; expected outward-facing normals"
         )
+    if table is not None:
+        chi = _clip_below(chi, grid, table, iso, hi_v - lo_v)
     # One layer of "outside" around the grid closes surfaces that reach the box faces.
     vol = np.pad(chi, 1, mode="constant", constant_values=min(lo_v, iso - 1.0))
     verts, faces, _, _ = measure.marching_cubes(vol, level=iso)
@@ -101,7 +119,7 @@ def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig):
         verts, faces = _largest_component(verts, faces)
     if _signed_volume(verts, faces) < 0:
         faces = faces[:, ::-1]
-    if not _is_closed(faces, verts.shape[0]):
+    if not is_closed(faces, verts.shape[0]):
         raise DegenerateGeometryError(
             "marching cubes returned a mesh that is not watertight; try another depth"
         )

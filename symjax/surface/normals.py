@@ -201,3 +201,30 @@ def oriented_completion(result: Any, camera: Any, config: NormalsConfig | None =
     normals = _plane_normals(pts, idx[:, : config.k], vp)
     inl = _inliers(d, config) if config.outlier_k > 0 else np.ones(pts.shape[0], bool)
     return OrientedPoints(pts[inl], normals[inl], w[inl], mirrored[inl])
+
+
+def oriented_observation(points: ArrayLike, camera: Any, config: NormalsConfig | None = None):
+    """Oriented normals of an observed (partial) cloud alone, without a symmetry result.
+
+    Every point faces the camera that saw it; outliers are removed. For the baseline "mesh the
+    observed points only" and for objects whose symmetry search failed.
+
+    Args:
+        points: (N, 3) observed points, world frame, metres.
+        camera: The :class:`~symjax.camera.Camera` (or its position (3,), metres).
+        config: Normal estimation configuration.
+
+    Returns:
+        :class:`OrientedPoints` with unit weights (none mirrored).
+    """
+    config = config or NormalsConfig()
+    pts = _as_points(points)
+    check_not_degenerate(pts, max(config.k, config.outlier_k + 1, 3), allow_planar=True)
+    cam = np.asarray(getattr(camera, "position", camera), dtype=np.float64)
+    if cam.shape != (3,) or not np.all(np.isfinite(cam)):
+        raise ShapeError(f"camera must be a Camera or a finite position (3,), got {cam.shape}")
+    d, idx = _knn(pts, max(config.k, config.outlier_k + 1))
+    normals = _plane_normals(pts, idx[:, : config.k], np.broadcast_to(cam, pts.shape))
+    inl = _inliers(d, config) if config.outlier_k > 0 else np.ones(pts.shape[0], bool)
+    n = int(inl.sum())
+    return OrientedPoints(pts[inl], normals[inl], np.ones(n), np.zeros(n, bool))

@@ -12,13 +12,14 @@ from collections.abc import Sequence
 from typing import Any, Literal
 
 import jax
+import numpy as np
 
 from symjax.array_types import ArrayLike
 from symjax.errors import InvalidInputError, SymjaxError, config_or_default
 from symjax.execution import ExecutionConfig
 from symjax.geometry import bucket
 from symjax.surface.config import PoissonConfig
-from symjax.surface.isosurface import grid_to_mesh
+from symjax.surface.isosurface import InsideOutError, grid_to_mesh
 from symjax.surface.normals import OrientedPoints
 from symjax.surface.poisson_grid import pack_views, solve_grid, solve_grids
 
@@ -30,6 +31,7 @@ def poisson_reconstruct(
     normals: ArrayLike,
     weights: ArrayLike = None,
     config: PoissonConfig | None = None,
+    table: Any = None,
 ):
     """Watertight mesh of one oriented point cloud.
 
@@ -38,6 +40,8 @@ def poisson_reconstruct(
         normals: (N, 3) outward normals (normalised here).
         weights: Optional (N,) non-negative per-point weights (e.g. the plausibility).
         config: :class:`PoissonConfig` (``depth`` 5 or 7 as in the paper).
+        table: The :class:`~symjax.table.TablePlane` the object stands on: the surface is cut
+            there and closed by it (nothing reaches under the table). None: no cut.
 
     Returns:
         A watertight ``trimesh.Trimesh`` in world coordinates, metres.
@@ -51,7 +55,36 @@ def poisson_reconstruct(
     cfg = config_or_default(config, PoissonConfig)
     n = len(points) if hasattr(points, "__len__") else 0
     P, N, W, V = pack_views([(points, normals, weights)], cfg, bucket(max(n, 1)))
-    return grid_to_mesh(jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg)), cfg)
+    table = _check_table(table)
+    try:
+        return grid_to_mesh(jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg)), cfg, table)
+    except InsideOutError:
+        if cfg.thin_shell <= 0:
+            raise
+        return _thin_shell(P[0][V[0]], N[0][V[0]], W[0][V[0]], cfg, table)
+
+
+def _thin_shell(points, normals, weights, cfg: PoissonConfig, table):
+    """The mesh of an open sheet solved as a wall: each point gets a twin ``t`` behind it with
+    the normal reversed (``t`` = ``cfg.thin_shell`` cells, at least 3 mm)."""
+    p, n = np.asarray(points, np.float64), np.asarray(normals, np.float64)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    w = np.asarray(weights, np.float64)
+    cell = float(np.ptp(p, axis=0).max()) * cfg.padding / cfg.resolution
+    t = max(cfg.thin_shell * cell, 0.003)
+    P, N, W, V = pack_views([(np.concatenate([p, p - t * n]), np.concatenate([n, -n]),
+                              np.concatenate([w, w]))], cfg, bucket(2 * len(p)))  # fmt: skip
+    mesh = grid_to_mesh(jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg)), cfg, table)
+    mesh.metadata["thin_shell_m"] = t
+    return mesh
+
+
+def _check_table(table: Any):
+    from symjax.table import TablePlane
+
+    if table is not None and not isinstance(table, TablePlane):
+        raise InvalidInputError(f"table must be a TablePlane or None, got {type(table).__name__}")
+    return table
 
 
 def _as_triple(view: Any) -> tuple:
@@ -70,6 +103,7 @@ def poisson_reconstruct_batch(
     config: PoissonConfig | None = None,
     execution: ExecutionConfig | None = None,
     errors: Literal["raise", "keep"] = "raise",
+    tables: Any = None,
 ) -> list:
     """Watertight meshes of several oriented clouds, one jitted solve per point bucket.
 
@@ -82,6 +116,9 @@ def poisson_reconstruct_batch(
         execution: ``poisson_chunk_views`` views are solved at once; no effect on the result.
         errors: ``"raise"``: the first bad view raises. ``"keep"``: a bad view's entry is its
             :class:`~symjax.errors.SymjaxError` and the other views are meshed as if alone.
+        tables: One :class:`~symjax.table.TablePlane` for every view, one per view (a list,
+            None entries allowed), or None: the surfaces are cut at their table (see
+            :func:`poisson_reconstruct`).
 
     Returns:
         One ``trimesh.Trimesh`` per view, in order (or the view's error, with ``"keep"``).
@@ -94,6 +131,11 @@ def poisson_reconstruct_batch(
     if not views:
         raise InvalidInputError("views is empty; expected at least one oriented cloud")
     triples = [_as_triple(v) for v in views]
+    if tables is None or not isinstance(tables, (list, tuple)):
+        tables = [tables] * len(views)
+    if len(tables) != len(views):
+        raise InvalidInputError(f"{len(tables)} tables for {len(views)} views; expected one each")
+    tables = [_check_table(t) for t in tables]
     out: list = [None] * len(views)
     # Each view keeps its own point bucket, so its rounding never depends on the batch; views
     # of one bucket are solved in one call.
@@ -115,7 +157,14 @@ def poisson_reconstruct_batch(
         grids = jax.device_get(solve_grids(*arrays, cfg, ex.poisson_chunk_views))
         for j, i in enumerate(idx):
             try:
-                out[i] = grid_to_mesh(grids[j], cfg)
+                try:
+                    out[i] = grid_to_mesh(grids[j], cfg, tables[i])
+                except InsideOutError:
+                    if cfg.thin_shell <= 0:
+                        raise
+                    p, n, w = triples[i]
+                    w = np.ones(len(p)) if w is None else w
+                    out[i] = _thin_shell(p, n, w, cfg, tables[i])
             except SymjaxError as e:
                 if errors == "raise":
                     raise

@@ -13,9 +13,11 @@ import mujoco
 import numpy as np
 
 from symjax.execution import ExecutionConfig
+from symjax.geometry import bucket, pad_rows
 from symjax.grasp.labels import labels
 from symjax.grasp.outcomes import GraspOutcomes
 from symjax.grasp.scene import GraspScene
+from symjax.grasp.scene_key import bind, object_arrays, static_key
 from symjax.grasp.schedule import control, snap_steps
 
 __all__ = ["run"]
@@ -23,21 +25,35 @@ __all__ = ["run"]
 _MAX_C_CONTACTS = 64
 
 
-@functools.lru_cache(maxsize=8)
-def _schedule_fn(scene: GraspScene):
+_COMPILED: dict[tuple, tuple] = {}
+
+
+def _compiled(scene: GraspScene):
+    """``(schedule, labels)`` jitted once per scene structure (:mod:`symjax.grasp.scene_key`)."""
+    key = static_key(scene)
+    if key in _COMPILED:
+        return _COMPILED[key]
+    template = scene
     n = scene.config.n_steps
 
-    def one(p):
-        ctrl, qfrc, eq = jax.vmap(lambda k: control(scene, k, p))(jnp.arange(n))
-        # mjtState bit order: ctrl, qfrc_applied, ..., eq_active.
-        return jnp.concatenate([ctrl, qfrc, eq.astype(ctrl.dtype)], axis=-1)
+    def schedule(p, arrays):
+        sc = bind(template, arrays)
 
-    return jax.jit(jax.vmap(one))
+        def one(p):
+            ctrl, qfrc, eq = jax.vmap(lambda k: control(sc, k, p))(jnp.arange(n))
+            # mjtState bit order: ctrl, qfrc_applied, ..., eq_active.
+            return jnp.concatenate([ctrl, qfrc, eq.astype(ctrl.dtype)], axis=-1)
 
+        return jax.vmap(one)(p)
 
-@functools.lru_cache(maxsize=8)
-def _labels_fn(scene: GraspScene):
-    return jax.jit(jax.vmap(functools.partial(labels, scene)))
+    def label(p, arrays, *rest):
+        sc = bind(template, arrays)
+        return jax.vmap(functools.partial(labels, sc))(p, *rest)
+
+    if len(_COMPILED) >= 8:
+        _COMPILED.pop(next(iter(_COMPILED)))
+    _COMPILED[key] = (jax.jit(schedule), jax.jit(label))
+    return _COMPILED[key]
 
 
 def _c_contacts(m, d, qpos: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -88,16 +104,23 @@ def run(
     i_app, i_grasp, i_end = snap_steps(cfg)
     n = len(params["travel"])
     size = 128  # keeps the (batch, steps, state) trajectory buffer near 50 MB
-    sched = _schedule_fn(scene)
-    labels = _labels_fn(scene)
+    sched, label = _compiled(scene)
+    arrays = {k: jnp.asarray(v) for k, v in object_arrays(scene).items()}
+    # Zero warm start for every rollout: the solver otherwise starts from whatever the thread's
+    # MjData held from its previous rollout, and reruns differ with the thread schedule.
+    warm = np.zeros((1, m.nv))
     parts = []
     for s in range(0, n, size):
         chunk = {k: v[s : s + size] for k, v in params.items()}
         B = len(chunk["travel"])
-        ctrl = np.asarray(sched({k: jnp.asarray(v) for k, v in chunk.items()}), np.float64)
+        # Jitted inputs padded to a size bucket: a last chunk of any length reuses a compile.
+        P = bucket(B, minimum=16)
+        padded = {k: jnp.asarray(pad_rows(v, P)) for k, v in chunk.items()}
+        ctrl = np.asarray(sched(padded, arrays), np.float64)[:B]
         init = np.repeat(template[None], B, axis=0)
         init[:, q0 : q0 + m.nq] = chunk["qpos"]
-        state, _ = rollout.rollout(m, datas, init, ctrl, control_spec=spec)
+        state, _ = rollout.rollout(m, datas, init, ctrl, control_spec=spec,
+                                   initial_warmstart=warm)  # fmt: skip
         qs = state[:, :, q0 : q0 + m.nq]
         # C MuJoCo resets a diverging simulation (and its clock) instead of returning NaN.
         t_end = state[:, -1, 0]
@@ -107,11 +130,14 @@ def run(
         q_app, q_grasp, q_end = qs[:, i_app], qs[:, i_grasp], qs[:, i_end]
         gc = _c_contacts(m, d, q_grasp)
         sc = _c_contacts(m, d, chunk["qpos"])
-        out = labels(
-            {k: jnp.asarray(v) for k, v in chunk.items()},
-            jnp.asarray(q_app), jnp.asarray(q_grasp), jnp.asarray(q_end), jnp.asarray(bad),
-            tuple(jnp.asarray(x) for x in gc), tuple(jnp.asarray(x) for x in sc),
+
+        def pad(x, P=P):
+            return jnp.asarray(pad_rows(np.asarray(x), P))
+
+        out = label(
+            padded, arrays, pad(q_app), pad(q_grasp), pad(q_end), pad(bad),
+            tuple(pad(x) for x in gc), tuple(pad(x) for x in sc),
         )  # fmt: skip
-        parts.append({k: np.asarray(v) for k, v in out.items()})
+        parts.append({k: np.asarray(v)[:B] for k, v in out.items()})
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     return GraspOutcomes(**merged, backend="mujoco")
