@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 import pytest
 import trimesh
+from test_mesh_rays import nearest_hits
 
 from symjax.datasets import (
     DATASET_IDS,
@@ -307,26 +308,6 @@ def test_plane_error(views):
 # ---------------------------------------------------------------------- ray casting & objects --
 
 
-def _moller_trumbore(origin, dirs, tris):
-    """Nearest hit distance of each ray with any triangle (inf = miss), brute force."""
-    v0, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
-    out = np.full(len(dirs), np.inf)
-    for i, d in enumerate(dirs):
-        p = np.cross(d, e2)
-        det = np.einsum("ij,ij->i", e1, p)
-        ok = np.abs(det) > 1e-12
-        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        s = origin - v0
-        u = np.einsum("ij,ij->i", s, p) * inv
-        q = np.cross(s, e1)
-        w = (q @ d) * inv
-        t = np.einsum("ij,ij->i", e2, q) * inv
-        hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)
-        if hit.any():
-            out[i] = t[hit].min()
-    return out
-
-
 def test_ray_casting_hits_the_mesh_triangles_not_the_convex_hull(views):
     """The mug's handle hole is seen through: MuJoCo rays use the triangles (collision uses the
     hull). Compared with a brute-force ray-triangle test on the same rays."""
@@ -344,7 +325,7 @@ def test_ray_casting_hits_the_mesh_triangles_not_the_convex_hull(views):
         [(cols[pick] - K[0, 2]) / K[0, 0], (rows[pick] - K[1, 2]) / K[1, 1], np.ones(len(pick))], 1
     )
     dirs = dirs_cam @ T[:3, :3].T
-    assert np.all(np.isinf(_moller_trumbore(T[:3, 3], dirs, np.asarray(mesh.triangles))))
+    assert np.all(np.isinf(nearest_hits(T[:3, 3], dirs, np.asarray(mesh.triangles), t_min=0.0)))
     # And on object pixels the brute-force depth matches the rendered one.
     depth, gid = render_depth(scene_model(meshes=[mesh]), cam)
     rows, cols = np.nonzero(gid >= 1)
@@ -352,7 +333,7 @@ def test_ray_casting_hits_the_mesh_triangles_not_the_convex_hull(views):
     dirs_cam = np.stack(
         [(cols[pick] - K[0, 2]) / K[0, 0], (rows[pick] - K[1, 2]) / K[1, 1], np.ones(len(pick))], 1
     )
-    t = _moller_trumbore(T[:3, 3], dirs_cam @ T[:3, :3].T, np.asarray(mesh.triangles))
+    t = nearest_hits(T[:3, 3], dirs_cam @ T[:3, :3].T, np.asarray(mesh.triangles), t_min=0.0)
     np.testing.assert_allclose(t, depth[rows[pick], cols[pick]], atol=1e-5)
 
 

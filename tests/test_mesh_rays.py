@@ -15,12 +15,13 @@ import trimesh
 from symjax import grasp
 
 
-def _reference(origins, directions, v, f):
-    """Nearest hit per ray, float64 Moller-Trumbore over every triangle: (R,) t, inf if none."""
-    tri = v[f]
+def nearest_hits(origins, directions, tri, t_min=1e-9):
+    """Nearest hit per ray, float64 Moller-Trumbore over every triangle (T, 3, 3): (R,) t, inf
+    if none (shared with test_datasets)."""
     v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    out = np.full(len(origins), np.inf)
-    for k, (o, d) in enumerate(zip(origins, directions, strict=True)):
+    out = np.full(len(directions), np.inf)
+    for k, (o, d) in enumerate(zip(np.broadcast_to(origins, np.shape(directions)), directions,
+                                   strict=True)):  # fmt: skip
         p = np.cross(d, e2)
         det = np.einsum("ij,ij->i", e1, p)
         ok = np.abs(det) > 1e-15
@@ -30,10 +31,14 @@ def _reference(origins, directions, v, f):
         q = np.cross(s, e1)
         w = q @ d * inv
         t = np.einsum("ij,ij->i", e2, q) * inv
-        hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 1e-9)
+        hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > t_min)
         if hit.any():
             out[k] = t[hit].min()
     return out
+
+
+def _reference(origins, directions, v, f):
+    return nearest_hits(origins, directions, v[f])
 
 
 @pytest.fixture(scope="module")
