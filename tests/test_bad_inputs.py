@@ -22,6 +22,7 @@ import trimesh
 import symjax
 from symjax import (
     configs,
+    datasets,
     decompose,
     grasp,
     hands,
@@ -317,6 +318,9 @@ CASES = [
     ("motion-grasp-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _nan_grasp()), InvalidInputError, ["NaN", "pregrasp"]),
     ("motion-start-shape", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.zeros(3)), ShapeError, ["(7,)", "(3,)"]),
     ("motion-start-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.full(7, np.nan)), InvalidInputError, ["NaN"]),
+    ("scan-scene-n-objects", lambda d: datasets.scan_scene("kth", 0), InvalidInputError, ["n_objects", "[1, 6]", "0"]),
+    ("scan-scene-too-many", lambda d: datasets.scan_scene("kth", 3, objects=("025_mug",)), InvalidInputError, ["n_objects", "[1, 1]"]),
+    ("scan-scene-robot", lambda d: datasets.scan_scene("pr2", 2), UnknownNameError, ["'pr2'", "kth"]),
     ("motion-start-joint-limit", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.full(7, 4.0)), InvalidInputError, ["start joint 0", "outside its range"]),
     ("motion-closing-sweep-steps", lambda d: __import__("symjax.motion.closing", fromlist=["x"]).closing_contacts(motion.PlanningScene("uji"), np.zeros(3), 1), ShapeError, ["full configuration", "(15,)"]),
     ("motion-start-in-collision", lambda d: motion.plan_arm(_blocked_scene(), _grasp()), motion.StartInCollisionError, ["start configuration", "obj/block"]),

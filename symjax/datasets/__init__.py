@@ -5,7 +5,8 @@
 ``preprocess`` (canonical object frame), ``mesh_symmetry`` (true symmetry planes), ``objects``
 (cached object models), ``stereo`` (the simulated stereo head), ``render`` (views of an object),
 ``view_file`` (a view on disk), ``collection`` (the cached benchmark), ``view`` (the view type),
-``raycast`` (display-free depth rendering), ``primitives`` (synthetic boxes and cylinders).
+``raycast`` (display-free depth rendering), ``primitives`` (synthetic boxes and cylinders),
+``scan_scenes`` (seeded table scenes of several scans for a robot, settled, from its head camera).
 """
 
 from symjax.datasets.catalogue import DATASET_IDS, OBJECT_NAMES
@@ -18,6 +19,7 @@ from symjax.datasets.render import (
     render_view,
     render_views,
 )
+from symjax.datasets.scan_scenes import SCENE_OBJECTS, ScanScene, head_camera, scan_scene
 from symjax.datasets.stereo import StereoHead, StereoNoise
 from symjax.datasets.view import View, symmetry_truth
 
@@ -26,17 +28,21 @@ __all__ = [
     "GENERATOR_VERSION",
     "OBJECT_NAMES",
     "ORIENTATIONS_DEG",
+    "SCENE_OBJECTS",
     "Benchmark",
     "BenchmarkConfig",
     "ObjectModel",
     "StereoHead",
     "StereoNoise",
+    "ScanScene",
     "View",
     "benchmark",
+    "head_camera",
     "load_dataset_object",
     "load_object",
     "render_view",
     "render_views",
     "symmetry_truth",
+    "scan_scene",
     "view_names",
 ]
