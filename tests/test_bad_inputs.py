@@ -318,6 +318,7 @@ CASES = [
     ("motion-grasp-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _nan_grasp()), InvalidInputError, ["NaN", "pregrasp"]),
     ("motion-start-shape", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.zeros(3)), ShapeError, ["(7,)", "(3,)"]),
     ("motion-start-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.full(7, np.nan)), InvalidInputError, ["NaN"]),
+    ("segment-depth-camera-tuple", lambda d: perception.segment((np.zeros((CAM.height, CAM.width)), CAM)), InvalidInputError, ["not a numeric array", "segment(depth, camera)"]),
     ("scan-scene-n-objects", lambda d: datasets.scan_scene("kth", 0), InvalidInputError, ["n_objects", "[1, 6]", "0"]),
     ("scan-scene-too-many", lambda d: datasets.scan_scene("kth", 3, objects=("025_mug",)), InvalidInputError, ["n_objects", "[1, 1]"]),
     ("scan-scene-robot", lambda d: datasets.scan_scene("pr2", 2), UnknownNameError, ["'pr2'", "kth"]),

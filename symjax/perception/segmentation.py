@@ -378,7 +378,14 @@ def segment(
         return _segment_depth(data.depth, camera or data.camera, config)
     if isinstance(data, PointCloud):
         return _segment_cloud(data.points, camera, data.viewpoint, config)
-    arr = np.asarray(data)
+    try:
+        arr = np.asarray(data, np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"data must be a DepthFrame, a PointCloud, a depth image (H, W) or a cloud (N, 3);"
+            f" got {type(data).__name__} that is not a numeric array (pass the camera as the"
+            " second argument: segment(depth, camera))"
+        ) from None
     if camera is not None and arr.shape == (camera.height, camera.width):
         return _segment_depth(arr, camera, config)
     if arr.ndim == 2 and arr.shape[1] == 3:
