@@ -33,6 +33,7 @@ __all__ = [
     "GENERATOR_VERSION",
     "ORIENTATIONS_DEG",
     "BenchmarkConfig",
+    "hit_normals",
     "render_exact",
     "render_view",
     "render_views",
@@ -111,14 +112,7 @@ def render_view(
     cam = config.head.place(rng, target, obj.size)
 
     depth, obj_mask = render_exact(mesh, cam)
-    # Normals of the hit faces: the exact hit point lies on its face, so one of the faces with
-    # the nearest centroids is it (a neighbour at worst, whose normal is as good here).
-    normals = np.zeros(depth.shape + (3,))
-    normals[..., 2] = 1.0
-    hits = backproject(depth, cam.K, cam.T_world_cam, obj_mask)
-    if len(hits):
-        _, face = surface_distance(hits, mesh, candidates=4, return_faces=True)
-        normals[obj_mask] = np.asarray(mesh.face_normals)[face]
+    normals = hit_normals(depth, cam, [(mesh, obj_mask)])
     noisy, flying_img = simulate_stereo(
         depth, obj_mask, normals, cam, config.noise, config.head.baseline, rng
     )
@@ -152,6 +146,27 @@ def render_view(
             "symmetry_deviation_m": list(obj.symmetry.deviations),
         },
     )
+
+
+def hit_normals(depth: np.ndarray, camera: Camera, parts) -> np.ndarray:
+    """Surface normals (H, W, 3) of an exact depth image: up (the table) except on the parts.
+
+    Args:
+        depth: Exact depth (H, W), metres.
+        camera: The camera that rendered it.
+        parts: ``(mesh, mask (H, W) bool)`` per object: the mesh's pixels.
+
+    A pixel's normal is its hit face's: the exact hit point lies on its face, so one of the
+    faces with the nearest centroids is it (a neighbour at worst, whose normal is as good here).
+    """
+    normals = np.zeros(np.shape(depth) + (3,))
+    normals[..., 2] = 1.0
+    for mesh, mask in parts:
+        hits = backproject(depth, camera.K, camera.T_world_cam, mask)
+        if len(hits):
+            _, face = surface_distance(hits, mesh, candidates=4, return_faces=True)
+            normals[mask] = np.asarray(mesh.face_normals)[face]
+    return normals
 
 
 def render_exact(

@@ -104,11 +104,17 @@ def _place(rng, radii, tries: int = 400):
 
 
 def _settle(meshes, xy, yaw, height: float, seconds: float = 1.5):
-    """Drops the objects on the table and returns their resting poses (k, 4, 4)."""
+    """Drops the objects on the table and returns their resting poses (k, 4, 4).
+
+    Friction, impedance ratio and density are the grasp rollouts' (``SimulationConfig``).
+    """
+    from symjax.grasp.sim_config import SimulationConfig
+
+    sim = SimulationConfig()
     spec = mujoco.MjSpec()
     spec.option.timestep = 0.002
-    spec.option.impratio = 10.0
-    friction = [1.0, 0.005, 0.0001]
+    spec.option.impratio = sim.impratio
+    friction = [sim.object_friction, 0.005, 0.0001]
     spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1.0, 1.0, 0.01],
                             pos=[0.65, 0.0, height - 0.01], friction=friction)  # fmt: skip
     for i, (m, p, a) in enumerate(zip(meshes, xy, yaw, strict=True)):
@@ -117,8 +123,8 @@ def _settle(meshes, xy, yaw, height: float, seconds: float = 1.5):
         b = spec.worldbody.add_body(name=f"o{i}", pos=[p[0], p[1], height + 0.003],
                                     quat=[np.cos(a / 2), 0.0, 0.0, np.sin(a / 2)])  # fmt: skip
         b.add_freejoint()
-        b.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"m{i}", density=400.0,
-                   friction=[1.0, 0.005, 0.0001])  # fmt: skip
+        b.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"m{i}",
+                   density=sim.object_density, friction=friction)  # fmt: skip
     model = spec.compile()
     data = mujoco.MjData(model)
     for _ in range(int(seconds / model.opt.timestep)):
@@ -162,9 +168,8 @@ def scan_scene(
     from symjax.datasets.collection import default_cache_dir
     from symjax.datasets.objects import load_object
     from symjax.datasets.raycast import render_depth, scene_model
+    from symjax.datasets.render import hit_normals
     from symjax.datasets.stereo import StereoHead, StereoNoise, simulate_stereo
-    from symjax.geometry import backproject
-    from symjax.metrics import surface_distance
 
     cache_dir = default_cache_dir() if cache_dir is None else cache_dir
     pool = tuple(objects) if objects is not None else SCENE_OBJECTS
@@ -196,14 +201,7 @@ def scan_scene(
     cam = head_camera(r, width, height)
     depth, geom = render_depth(scene_model(meshes=meshes, table_height=h), cam)
     labels = np.where(depth > 0, geom, -1).astype(np.int32)  # geom 0 is the table
-    normals = np.zeros(depth.shape + (3,))
-    normals[..., 2] = 1.0
-    for i, m in enumerate(meshes):
-        sel = labels == i + 1
-        hits = backproject(depth, cam.K, cam.T_world_cam, sel)
-        if len(hits):
-            _, face = surface_distance(hits, m, candidates=4, return_faces=True)
-            normals[sel] = np.asarray(m.face_normals)[face]
+    normals = hit_normals(depth, cam, [(m, labels == i + 1) for i, m in enumerate(meshes)])
     noisy, _ = simulate_stereo(depth, labels > 0, normals, cam, StereoNoise(),
                                StereoHead().baseline, rng)  # fmt: skip
     return ScanScene(r.name, names, poses, tuple(meshes), cam, noisy, labels, h, int(seed))

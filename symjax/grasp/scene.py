@@ -23,7 +23,7 @@ from symjax.errors import (
 )
 from symjax.grasp.sim_config import SimulationConfig
 
-__all__ = ["GraspScene", "build_scene"]
+__all__ = ["GraspScene", "build_scene", "contact_model"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -173,12 +173,6 @@ def scene_spec(hulls, com: np.ndarray, hand: Any, config: SimulationConfig, heig
     o.iterations = config.iterations
     o.ls_iterations = config.ls_iterations
     o.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    o.cone = (
-        mujoco.mjtCone.mjCONE_ELLIPTIC
-        if config.cone == "elliptic"
-        else mujoco.mjtCone.mjCONE_PYRAMIDAL
-    )
-    o.impratio = config.impratio
     if config.mjx_max_contacts is not None:
         spec.add_numeric(name="max_contact_points", data=[config.mjx_max_contacts])
     if config.mjx_max_pairs is not None:
@@ -232,11 +226,7 @@ def scene_spec(hulls, com: np.ndarray, hand: Any, config: SimulationConfig, heig
     for g in spec.geoms:
         # MJX has no margin for box-mesh pairs; zero it everywhere so both backends agree.
         g.margin = 0.0
-        if g.name.startswith("hand/") and config.finger_torsion > 0:
-            # Soft finger pads: torsional friction keeps a pinched object from pivoting about
-            # the line through two point contacts.
-            g.condim = 4
-            g.friction = [g.friction[0], config.finger_torsion, g.friction[2]]
+    contact_model(spec, config, "hand/")
     for ax in "xyz":
         a = spec.add_actuator(name=f"base_v{ax}", target=f"base_{ax}")
         a.trntype = mujoco.mjtTrn.mjTRN_JOINT
@@ -248,6 +238,25 @@ def scene_spec(hulls, com: np.ndarray, hand: Any, config: SimulationConfig, heig
         a.trntype = mujoco.mjtTrn.mjTRN_JOINT
         a.set_to_position(kp=config.base_kp_rot, dampratio=1.0)
     return spec
+
+
+def contact_model(spec: mujoco.MjSpec, config: SimulationConfig, hand_prefix: str) -> None:
+    """The rollouts' contacts on a spec: the friction cone, the impedance ratio and torsional
+    friction on the geoms whose names start with ``hand_prefix`` (also the arm replay's)."""
+    spec.option.cone = (
+        mujoco.mjtCone.mjCONE_ELLIPTIC
+        if config.cone == "elliptic"
+        else mujoco.mjtCone.mjCONE_PYRAMIDAL
+    )
+    spec.option.impratio = config.impratio
+    if config.finger_torsion <= 0:
+        return
+    for g in spec.geoms:
+        if g.name.startswith(hand_prefix):
+            # Soft finger pads: torsional friction keeps a pinched object from pivoting about
+            # the line through two point contacts.
+            g.condim = 4
+            g.friction = [g.friction[0], config.finger_torsion, g.friction[2]]
 
 
 def index_tables(m: mujoco.MjModel, hand: Any) -> dict[str, Any]:

@@ -21,6 +21,11 @@ __all__ = ["bind", "object_arrays", "static_key"]
 _OBJECT_FIELDS = ("mass", "radius", "geom_finger", "geom_object", "geom_table")
 
 
+def _geom_rows(scene: GraspScene) -> int:
+    """The geom tables' padded length: a bucket of the model's geom count."""
+    return bucket(scene.model.ngeom, minimum=32)
+
+
 def static_key(scene: GraspScene) -> tuple:
     """Hashable structure of a scene: equal keys compile to the same functions."""
     m = scene.model
@@ -30,7 +35,7 @@ def static_key(scene: GraspScene) -> tuple:
 
     return (
         scene.hand.name, len(scene.hand.finger_names), scene.config,
-        m.nq, m.nv, m.nu, m.neq, bucket(m.ngeom, minimum=32),
+        m.nq, m.nv, m.nu, m.neq, _geom_rows(scene),
         tuple(float(g) for g in m.opt.gravity),
         t(scene.qadr_base), t(scene.qadr_hand), scene.qadr_object, scene.dadr_object,
         t(scene.act_slide), t(scene.act_hinge), t(scene.act_hand), scene.weld,
@@ -42,7 +47,7 @@ def object_arrays(scene: GraspScene) -> dict[str, np.ndarray]:
 
     Padded geoms are neither hand (-1), object nor table; contacts never name them.
     """
-    pad = bucket(scene.model.ngeom, minimum=32) - scene.model.ngeom
+    pad = _geom_rows(scene) - scene.model.ngeom
 
     def padded(x, fill):
         x = np.asarray(x)

@@ -81,20 +81,15 @@ def replay_model(
         simulation: A :class:`symjax.grasp.SimulationConfig` (default settings when None).
     """
     from symjax.decompose.mjcf_object import object_spec
+    from symjax.grasp.scene import contact_model
     from symjax.grasp.sim_config import SimulationConfig
 
     sim = simulation if simulation is not None else SimulationConfig()
     spec = scene.robot.spec()
-    spec.option.impratio = sim.impratio
-    spec.option.cone = (mujoco.mjtCone.mjCONE_ELLIPTIC if sim.cone == "elliptic"
-                        else mujoco.mjtCone.mjCONE_PYRAMIDAL)  # fmt: skip
+    contact_model(spec, sim, scene.robot.hand_prefix)
     for b in spec.bodies:
         if b.name.startswith(("link", scene.robot.hand_prefix)):
             b.gravcomp = 1.0
-    for g in spec.geoms:
-        if g.name.startswith(scene.robot.hand_prefix) and sim.finger_torsion > 0:
-            g.condim = 4
-            g.friction = [g.friction[0], sim.finger_torsion, g.friction[2]]
     for name in scene.object_names:
         hulls = hull_list((objects or {}).get(name, scene._objects[name].hulls))
         p, R = scene.object_pose(name)

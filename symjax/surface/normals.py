@@ -197,10 +197,16 @@ def oriented_completion(result: Any, camera: Any, config: NormalsConfig | None =
     plane_n = np.asarray(result.normal, dtype=np.float64)
     cam_m = np.asarray(reflect(cam[None, :], plane_n, float(result.offset)))[0]
     vp = np.where(mirrored[:, None], cam_m[None, :], cam[None, :])
+    return _oriented(pts, vp, w, mirrored, config)
+
+
+def _oriented(pts, viewpoints, weights, mirrored, config: NormalsConfig) -> OrientedPoints:
+    """Normals facing each point's viewpoint and the outliers removed; one k-d tree query
+    serves both."""
     d, idx = _knn(pts, max(config.k, config.outlier_k + 1))
-    normals = _plane_normals(pts, idx[:, : config.k], vp)
+    normals = _plane_normals(pts, idx[:, : config.k], viewpoints)
     inl = _inliers(d, config) if config.outlier_k > 0 else np.ones(pts.shape[0], bool)
-    return OrientedPoints(pts[inl], normals[inl], w[inl], mirrored[inl])
+    return OrientedPoints(pts[inl], normals[inl], weights[inl], mirrored[inl])
 
 
 def oriented_observation(points: ArrayLike, camera: Any, config: NormalsConfig | None = None):
@@ -223,8 +229,5 @@ def oriented_observation(points: ArrayLike, camera: Any, config: NormalsConfig |
     cam = np.asarray(getattr(camera, "position", camera), dtype=np.float64)
     if cam.shape != (3,) or not np.all(np.isfinite(cam)):
         raise ShapeError(f"camera must be a Camera or a finite position (3,), got {cam.shape}")
-    d, idx = _knn(pts, max(config.k, config.outlier_k + 1))
-    normals = _plane_normals(pts, idx[:, : config.k], np.broadcast_to(cam, pts.shape))
-    inl = _inliers(d, config) if config.outlier_k > 0 else np.ones(pts.shape[0], bool)
-    n = int(inl.sum())
-    return OrientedPoints(pts[inl], normals[inl], np.ones(n), np.zeros(n, bool))
+    n = len(pts)
+    return _oriented(pts, np.broadcast_to(cam, pts.shape), np.ones(n), np.zeros(n, bool), config)

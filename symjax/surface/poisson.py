@@ -56,11 +56,19 @@ def poisson_reconstruct(
     n = len(points) if hasattr(points, "__len__") else 0
     P, N, W, V = pack_views([(points, normals, weights)], cfg, bucket(max(n, 1)))
     table = _check_table(table)
+    grid = jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg))
+    return _mesh(grid, (P, N, W, V), cfg, table)
+
+
+def _mesh(grid, packed: tuple, cfg: PoissonConfig, table):
+    """The grid's mesh; an inside-out indicator is solved again as a thin shell from the view's
+    packed arrays (:func:`pack_views`, batch of one)."""
     try:
-        return grid_to_mesh(jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg)), cfg, table)
+        return grid_to_mesh(grid, cfg, table)
     except InsideOutError:
         if cfg.thin_shell <= 0:
             raise
+        P, N, W, V = packed
         return _thin_shell(P[0][V[0]], N[0][V[0]], W[0][V[0]], cfg, table)
 
 
@@ -157,14 +165,7 @@ def poisson_reconstruct_batch(
         grids = jax.device_get(solve_grids(*arrays, cfg, ex.poisson_chunk_views))
         for j, i in enumerate(idx):
             try:
-                try:
-                    out[i] = grid_to_mesh(grids[j], cfg, tables[i])
-                except InsideOutError:
-                    if cfg.thin_shell <= 0:
-                        raise
-                    p, n, w = triples[i]
-                    w = np.ones(len(p)) if w is None else w
-                    out[i] = _thin_shell(p, n, w, cfg, tables[i])
+                out[i] = _mesh(grids[j], packed[i], cfg, tables[i])
             except SymjaxError as e:
                 if errors == "raise":
                     raise
