@@ -193,6 +193,16 @@ def _nan_grasp():
     return motion.GraspPose((np.full(3, np.nan), g.pregrasp[1]), g.grasp, 1)
 
 
+def _decomposition():
+    from symjax.decompose import Decomposition
+
+    return Decomposition(tuple(_hulls()), "k", False, 0.0)
+
+
+def _up_normals():
+    return np.tile([0.0, 0.0, 1.0], (len(PTS), 1))
+
+
 def _blocked_scene():
     """A block around the UJI hand at home."""
     scene = motion.PlanningScene("uji")
@@ -319,6 +329,18 @@ CASES = [
     ("motion-start-shape", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.zeros(3)), ShapeError, ["(7,)", "(3,)"]),
     ("motion-start-nan", lambda d: motion.plan_arm(motion.PlanningScene("uji"), _grasp(), start=np.full(7, np.nan)), InvalidInputError, ["NaN"]),
     ("segment-depth-camera-tuple", lambda d: perception.segment((np.zeros((CAM.height, CAM.width)), CAM)), InvalidInputError, ["not a numeric array", "segment(depth, camera)"]),
+    ("scan-scene-camera-robot", lambda d: datasets.head_camera("pr2"), UnknownNameError, ["'pr2'", "kth"]),
+    ("candidates-take-range", lambda d: _cands().take([10**6]), InvalidInputError, ["out of range"]),
+    ("candidates-take-mask", lambda d: _cands().take(np.ones(3, bool)), ShapeError, ["mask", "shape"]),
+    ("candidates-take-float", lambda d: _cands().take([0.5]), InvalidInputError, ["integers", "float"]),
+    ("candidates-concatenate-empty", lambda d: grasp.Candidates.concatenate([]), InvalidInputError, ["non-empty list"]),
+    ("grasp-plan-scene-hand", lambda d: grasp.plan(BOX, hands.load("sdh"), "uji", scene=grasp.build_scene(_hulls(), hands.load("barrett"))), InvalidInputError, ["GraspScene", "same hand"]),
+    ("decomposition-move-nan", lambda d: _decomposition().transformed(np.full((4, 4), np.nan)), InvalidInputError, ["decomposition pose", "NaN"]),
+    ("decomposition-move-shape", lambda d: _decomposition().transformed(np.eye(3)), ShapeError, ["decomposition pose"]),
+    ("observation-normals-camera", lambda d: surface.oriented_observation(PTS, np.zeros(2)), ShapeError, ["camera", "(3,)"]),
+    ("poisson-table-type", lambda d: surface.poisson_reconstruct(PTS, _up_normals(), table=0.75), InvalidInputError, ["TablePlane", "float"]),
+    ("poisson-tables-count", lambda d: surface.poisson_reconstruct_batch([(PTS, _up_normals())], tables=[None, None]), InvalidInputError, ["2 tables", "1 views"]),
+    ("view-true-mesh-real", lambda d: datasets.View.from_observation(VIEW, "box/real").true_mesh(), InvalidInputError, ["no ground truth", "real"]),
     ("scan-scene-n-objects", lambda d: datasets.scan_scene("kth", 0), InvalidInputError, ["n_objects", "[1, 6]", "0"]),
     ("scan-scene-too-many", lambda d: datasets.scan_scene("kth", 3, objects=("025_mug",)), InvalidInputError, ["n_objects", "[1, 1]"]),
     ("scan-scene-robot", lambda d: datasets.scan_scene("pr2", 2), UnknownNameError, ["'pr2'", "kth"]),
