@@ -34,6 +34,7 @@ import trimesh
 
 from symjax import motion
 from symjax._atomic import atomic_write_json
+from symjax._timing import median_p95
 from symjax.cli.common import PresetArgs, parse
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -67,10 +68,7 @@ class Args(PresetArgs):
 
 
 def _stats(x) -> dict:
-    x = np.asarray(x, float)
-    if len(x) == 0:
-        return {"median": None, "p95": None}
-    return {"median": round(float(np.median(x)), 5), "p95": round(float(np.percentile(x, 95)), 5)}
+    return median_p95(x)
 
 
 def _box(size, centre):

@@ -38,6 +38,7 @@ __version__ = "0.1.0"
 _SUBPACKAGES = (
     "cli",
     "configs",
+    "cycle",
     "datasets",
     "decompose",
     "evaluation",
@@ -51,6 +52,7 @@ _SUBPACKAGES = (
     "perception",
     "resources",
     "robots",
+    "study",
     "surface",
     "symmetry",
 )

@@ -22,6 +22,7 @@ import trimesh
 import symjax
 from symjax import (
     configs,
+    cycle,
     datasets,
     decompose,
     grasp,
@@ -31,6 +32,7 @@ from symjax import (
     motion,
     perception,
     robots,
+    study,
     surface,
 )
 from symjax.datasets import benchmark, load_object
@@ -171,6 +173,16 @@ class _CliError(SymjaxError):
 
 
 # fmt: off
+
+
+def _scan_scene(robot="uji"):
+    return datasets.ScanScene(robot, ("a",), np.eye(4)[None], (BOX,), CAM, np.zeros((CAM.height, CAM.width)),
+                              np.zeros((CAM.height, CAM.width), np.int32), 0.75, 0)
+
+
+def _empty_report():
+    return cycle.CycleReport("kth", "C", (), (), "table clear", 0.0)
+
 
 def _hulls():
     b = trimesh.creation.box((0.05, 0.05, 0.1))
@@ -378,6 +390,31 @@ CASES = [
     # --- data sets -------------------------------------------------------------------------
     ("benchmark-unknown", lambda d: benchmark("no_such_object"), UnknownNameError, ["no_such_object"]),
     ("load-object-missing", lambda d: load_object(d / "none.obj"), MissingFileError, ["none.obj"]),
+    # --- grasp cycle and study ----------------------------------------------------------------
+    ("cycle-scene-type", lambda d: cycle.clear_table("scene", "kth"), InvalidInputError, ["ScanScene", "DepthFrame", "str"]),
+    ("cycle-robot-mismatch", lambda d: cycle.clear_table(_scan_scene("uji"), "kth"), InvalidInputError, ["'uji'", "'kth'"]),
+    ("cycle-robot-unknown", lambda d: cycle.clear_table(_scan_scene("uji"), "pr2"), UnknownNameError, ["'pr2'", "kth"]),
+    ("cycle-truth-on-frame", lambda d: cycle.clear_table(io.DepthFrame(np.zeros((CAM.height, CAM.width), np.float32), CAM), "kth", cycle.CycleConfig(mode="T")), InvalidInputError, ["mode T", "ScanScene"]),
+    ("cycle-config-mode", lambda d: cycle.CycleConfig(mode="X"), ConfigError, ["mode", "'X'"]),
+    ("cycle-config-grasps", lambda d: cycle.CycleConfig(arm_grasps=-1), ConfigError, ["arm_grasps = -1", ">= 0"]),
+    ("cycle-config-dropoff", lambda d: cycle.CycleConfig(dropoff_radius=-0.1), ConfigError, ["dropoff_radius", "> 0"]),
+    ("cycle-config-type", lambda d: cycle.clear_table(_scan_scene("kth"), "kth", {"mode": "C"}), ConfigError, ["CycleConfig", "dict"]),
+    ("cycle-scenes-count", lambda d: __import__("symjax.cycle.batch", fromlist=["x"]).scene_specs(("kth",), 0, 0, (2, 5)), InvalidInputError, [">= 1 scenes", "got 0"]),
+    ("cycle-scenes-objects", lambda d: __import__("symjax.cycle.batch", fromlist=["x"]).scene_specs(("kth",), 2, 0, (4, 9)), InvalidInputError, ["max objects <= 6", "(4, 9)"]),
+    ("cycle-out-is-file", lambda d: __import__("symjax.cycle.batch", fromlist=["x"]).run_scenes([], ("C",), cycle.CycleConfig(), _write(d, "f", "x")), FileFormatError, ["is a file", "folder"]),
+    ("cycle-picture-none", lambda d: __import__("symjax.cycle.pictures", fromlist=["x"]).cycle_picture(_empty_report(), d / "p.png"), InvalidInputError, ["no pictures", "pictures=True"]),
+    ("scene-rearranged-poses", lambda d: datasets.rearranged(_scan_scene(), [0], np.eye(3)[None]), InvalidInputError, ["(1, 4, 4)", "(1, 3, 3)"]),
+    ("scene-rearranged-index", lambda d: datasets.rearranged(_scan_scene(), [3], np.eye(4)[None]), InvalidInputError, ["keep", "[0, 1)", "[3]"]),
+    ("study-config-top", lambda d: study.StudyConfig(top=0), ConfigError, ["top", ">= 1"]),
+    ("study-config-generator", lambda d: study.StudyConfig(hands=(("sdh", "magic"),)), ConfigError, ["'magic'", "kth"]),
+    ("study-out-is-file", lambda d: study.run_study(study.StudyConfig(out_dir=str(_write(d, "f", "x")))), FileFormatError, ["is a file", "folder"]),
+    ("grasp-obstacles-one-hull", lambda d: grasp.build_scene(_hulls(), SDH, obstacles=_hulls()[0]), InvalidInputError, ["obstacles", "[(vertices, faces)]"]),
+    ("grasp-obstacles-nan", lambda d: grasp.build_scene(_hulls(), SDH, obstacles=[(np.full((4, 3), np.nan), np.zeros((4, 3), int))]), InvalidInputError, ["obstacle", "finite vertices"]),
+    ("grasp-obstacles-type", lambda d: grasp.plan(BOX, SDH, "uji", obstacles="box"), InvalidInputError, ["obstacles", "str"]),
+    ("motion-config-approach-margin", lambda d: motion.MotionConfig(approach_margin=0.01), ConfigError, ["approach_margin", "check_margin"]),
+    ("cli-clear-table-objects", lambda d: _cli("clear-table", "--min-objects", "7", "--out-dir", str(d / "o")), _CliError, ["exit 2", "min objects", "(7, 5)"]),
+    ("cli-clear-table-robot", lambda d: _cli("clear-table", "--robots", "pr2", "--out-dir", str(d / "o")), _CliError, ["exit 2", "pr2"]),
+    ("cli-study-top", lambda d: _cli("study", "--top", "0", "--out-dir", str(d / "o")), _CliError, ["exit 2", "top", ">= 1"]),
     # --- command line ------------------------------------------------------------------------
     ("cli-unknown-command", lambda d: _cli("evaluate"), _CliError, ["unknown command 'evaluate'", "eval"]),
     ("cli-preset", lambda d: _cli("eval", "--config", "papr"), _CliError, ["exit 2", "unknown preset 'papr'", "paper"]),

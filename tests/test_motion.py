@@ -132,6 +132,20 @@ def test_approach_near_the_table_keeps_the_hand_off_it():
                         for h in sm.hand_geoms))  # fmt: skip
     assert min(gaps) >= cfg.check_margin - 1e-4
     assert gaps[-1] < 0.02  # it got close
+    # The final approach's own margin (the cycle's 1 mm): closer to the table, never into it.
+    scene.table_margin = 0.001
+    try:
+        path2, _, _, col2 = ik.line(pre.q, np.array([0.7, 0.0, table + 0.005]), DOWN, table=0.001)
+    finally:
+        scene.table_margin = None
+    assert path2 and col2, col2
+    near = []
+    for q in path2:
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        near.append(min(mujoco.mj_geomDistance(m, d, int(h), int(sm.fixed_geoms[0]), 0.1, None)
+                        for h in sm.hand_geoms))  # fmt: skip
+    assert 0.001 - 1e-4 <= min(near) < cfg.check_margin, (col2, near[-3:])
 
 
 def test_attached_object_is_carried_around_an_obstacle():
@@ -153,6 +167,14 @@ def test_attached_object_is_carried_around_an_obstacle():
     assert rep.collision_free, rep.collisions
     assert not [c for c in rep.object_contacts if "post" in c[1]]
     assert rep.lifted
+    # The box leaves the hand over the drop-off and its motion maps where it stood to where it
+    # ends (the post, a free body too, stands off the table's edge and falls to the floor).
+    assert set(rep.object_motion) == {"target", "post"}
+    drop = np.asarray(scene.robot.dropoff)
+    assert np.hypot(*(rep.target_released[:2] - drop[:2])) < 0.1
+    T = rep.object_motion["target"]
+    start = np.concatenate([v for v, _ in box((0.05, 0.05, 0.12), target)]).mean(axis=0)
+    assert np.linalg.norm(T[:3, :3] @ start + T[:3, 3] - rep.target_final) < 0.02
     # The scene is left as it was: nothing attached, the box back at its place.
     assert scene.attached is None
     assert np.allclose(scene.object_pose("target")[0], 0)

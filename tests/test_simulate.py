@@ -329,3 +329,35 @@ def test_plan_takes_a_prebuilt_scene(objects, hand_models):
     np.testing.assert_array_equal(a.outcomes.numpy().success, b.outcomes.numpy().success)
     with pytest.raises(InvalidInputError, match="same hand"):
         plan((v, f), hand_models["sdh"], "uji", scene=scene, candidates=SMALL)
+
+
+def test_other_objects_on_the_table_block_the_hand(objects, hand_models):
+    """A candidate whose hand starts inside a neighbouring object fails; the same candidate
+    succeeds without it, and an obstacle far away changes nothing."""
+    v, f = objects["box"]
+    hand = hand_models["barrett"]
+    p = plan((v, f), hand, "uji", hulls=[(v, f)], candidates=SMALL, backend="mujoco")
+    o = p.outcomes.numpy()
+    best = p.candidates.take(np.flatnonzero(o.success)[:4])
+    start = np.asarray(best.start_positions())
+    block = trimesh.creation.box((0.06, 0.06, 0.06))
+    block.apply_translation(start[0])
+    far = trimesh.creation.box((0.05, 0.05, 0.05))
+    far.apply_translation((3.0, 3.0, 0.025))
+    hulls = [(np.asarray(b.vertices), np.asarray(b.faces)) for b in (block, far)]
+    free = grasp.simulate(
+        None,
+        best,
+        hand,
+        backend="mujoco",
+        scene=grasp.build_scene([(v, f)], hand, obstacles=hulls[1:]),
+    ).numpy()
+    blocked = grasp.simulate(
+        None, best, hand, backend="mujoco", scene=grasp.build_scene([(v, f)], hand, obstacles=hulls)
+    ).numpy()
+    assert free.success.all()
+    assert not blocked.success[0]
+    # The hand starts in it or is stopped by it before it reaches the object.
+    assert blocked.start_penetration[0] > 0.005 or blocked.travel[0] < free.travel[0] - 0.005
+    with pytest.raises(InvalidInputError):
+        grasp.build_scene([(v, f)], hand, obstacles=hulls[0])

@@ -26,6 +26,18 @@ def _demo(argv: list[str]) -> int:
     return main(argv)
 
 
+def _clear_table(argv: list[str]) -> int:
+    from symjax.cli.cycle_command import main
+
+    return main(argv)
+
+
+def _study(argv: list[str]) -> int:
+    from symjax.cli.study_command import main
+
+    return main(argv)
+
+
 def _presets(argv: list[str]) -> int:
     from symjax import configs
 
@@ -41,6 +53,8 @@ def _presets(argv: list[str]) -> int:
 COMMANDS: dict[str, tuple[Callable[[list[str]], int], str]] = {
     "eval": (_eval, "the paper's mesh evaluation over the 128 embedded views (Fig. 10-12)"),
     "demo": (_demo, "symmetry completion of 24 synthetic views, in under a minute"),
+    "clear-table": (_clear_table, "the grasp cycle (Algorithm 1) on seeded table scenes, C/P/T"),
+    "study": (_study, "plan on the completion, score on the truth (T/C/P grasps on the truth)"),
     "presets": (_presets, "list the named presets of configs/"),
 }
 
@@ -51,7 +65,7 @@ _USAGE = (
     + (
         "symjax: robotic grasping under incomplete observation (Bohg et al., ICRA 2011).\n\n"
         "commands:\n"
-        + "\n".join(f"  {name:10s} {summary}" for name, (_, summary) in COMMANDS.items())
+        + "\n".join(f"  {name:12s} {summary}" for name, (_, summary) in COMMANDS.items())
         + "\n\nRun 'symjax <command> --help' for a command's options."
     )
 )

@@ -19,7 +19,13 @@ from symjax.datasets.render import (
     render_view,
     render_views,
 )
-from symjax.datasets.scan_scenes import SCENE_OBJECTS, ScanScene, head_camera, scan_scene
+from symjax.datasets.scan_scenes import (
+    SCENE_OBJECTS,
+    ScanScene,
+    head_camera,
+    rearranged,
+    scan_scene,
+)
 from symjax.datasets.stereo import StereoHead, StereoNoise
 from symjax.datasets.view import View, symmetry_truth
 
@@ -43,6 +49,7 @@ __all__ = [
     "render_view",
     "render_views",
     "symmetry_truth",
+    "rearranged",
     "scan_scene",
     "view_names",
 ]

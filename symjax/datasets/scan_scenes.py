@@ -19,7 +19,7 @@ import numpy as np
 from symjax.camera import Camera
 from symjax.errors import InvalidInputError, SimulationError
 
-__all__ = ["SCENE_OBJECTS", "ScanScene", "head_camera", "scan_scene"]
+__all__ = ["SCENE_OBJECTS", "ScanScene", "head_camera", "rearranged", "scan_scene"]
 
 #: Scans that stand on a table and fit a hand: the benchmark's upright objects and others.
 SCENE_OBJECTS = (
@@ -167,9 +167,6 @@ def scan_scene(
     from symjax import robots
     from symjax.datasets.collection import default_cache_dir
     from symjax.datasets.objects import load_object
-    from symjax.datasets.raycast import render_depth, scene_model
-    from symjax.datasets.render import hit_normals
-    from symjax.datasets.stereo import StereoHead, StereoNoise, simulate_stereo
 
     cache_dir = default_cache_dir() if cache_dir is None else cache_dir
     pool = tuple(objects) if objects is not None else SCENE_OBJECTS
@@ -199,9 +196,63 @@ def scan_scene(
         m.apply_transform(T)
         meshes.append(m)
     cam = head_camera(r, width, height)
-    depth, geom = render_depth(scene_model(meshes=meshes, table_height=h), cam)
+    depth, labels = _render(meshes, cam, h, rng)
+    return ScanScene(r.name, names, poses, tuple(meshes), cam, depth, labels, h, int(seed))
+
+
+def _render(meshes, cam: Camera, height: float, rng) -> tuple[np.ndarray, np.ndarray]:
+    """Noisy depth (H, W) and exact labels (H, W) of world-frame meshes on the table."""
+    from symjax.datasets.raycast import render_depth, scene_model
+    from symjax.datasets.render import hit_normals
+    from symjax.datasets.stereo import StereoHead, StereoNoise, simulate_stereo
+
+    depth, geom = render_depth(scene_model(meshes=list(meshes), table_height=height), cam)
     labels = np.where(depth > 0, geom, -1).astype(np.int32)  # geom 0 is the table
     normals = hit_normals(depth, cam, [(m, labels == i + 1) for i, m in enumerate(meshes)])
     noisy, _ = simulate_stereo(depth, labels > 0, normals, cam, StereoNoise(),
                                StereoHead().baseline, rng)  # fmt: skip
-    return ScanScene(r.name, names, poses, tuple(meshes), cam, noisy, labels, h, int(seed))
+    return noisy, labels
+
+
+def rearranged(scene: ScanScene, keep: Any, poses: Any, seed: int = 0) -> ScanScene:
+    """The scene after the robot acted: only objects ``keep``, at ``poses``, seen again.
+
+    Args:
+        scene: The scene before.
+        keep: Indices of the objects still on the table, in the order of the new labels.
+        poses: Their new object-to-world transforms, shape (len(keep), 4, 4).
+        seed: Seed of the new image's stereo noise.
+
+    Returns:
+        A :class:`ScanScene` of the kept objects, re-rendered from the same camera.
+
+    Raises:
+        InvalidInputError: Poses not one finite (4, 4) per kept object, or a bad index.
+    """
+    keep = [int(i) for i in keep]
+    poses = np.asarray(poses, float)
+    if poses.shape != (len(keep), 4, 4) or not np.all(np.isfinite(poses)):
+        raise InvalidInputError(
+            f"poses must be finite ({len(keep)}, 4, 4) transforms, one per kept object; got"
+            f" shape {poses.shape}"
+        )
+    if any(not 0 <= i < len(scene.names) for i in keep) or len(set(keep)) != len(keep):
+        raise InvalidInputError(
+            f"keep must be distinct object indices in [0, {len(scene.names)}), got {keep}"
+        )
+    meshes = []
+    for i, T in zip(keep, poses, strict=True):
+        m = scene.meshes[i].copy()
+        m.apply_transform(T @ np.linalg.inv(scene.poses[i]))
+        meshes.append(m)
+    rng = np.random.default_rng(seed)
+    depth, labels = _render(meshes, scene.camera, scene.table_height, rng)
+    return dataclasses.replace(
+        scene,
+        names=tuple(scene.names[i] for i in keep),
+        poses=poses,
+        meshes=tuple(meshes),
+        depth=depth,
+        labels=labels,
+        seed=int(seed),
+    )

@@ -93,6 +93,7 @@ def plan(
     hulls: Any = None,
     scene: Any = None,
     table: Any = None,
+    obstacles: Any = None,
     candidates: CandidateConfig | None = None,
     simulation: SimulationConfig | None = None,
     execution: ExecutionConfig | None = None,
@@ -113,6 +114,8 @@ def plan(
             :func:`build_scene`) to simulate in instead of building one from ``hulls``.
         table: A horizontal :class:`symjax.table.TablePlane` or a height; default: the mesh's
             lowest point.
+        obstacles: The other objects on the table as fixed hulls, world frame (see
+            :func:`symjax.grasp.build_scene`); ignored with a prebuilt ``scene``.
         candidates: :class:`CandidateConfig` for the generator.
         simulation: :class:`SimulationConfig`.
         execution: Chunk size and threads; no effect on the labels.
@@ -147,7 +150,7 @@ def plan(
             from symjax.decompose import decompose
 
             hulls = decompose((v, f))
-        scene = build_scene(hulls, hand, simulation, table=plane)
+        scene = build_scene(hulls, hand, simulation, table=plane, obstacles=obstacles)
     elif not isinstance(scene, GraspScene) or scene.hand.name != hand.name:
         raise InvalidInputError(
             "scene must be a GraspScene of the same hand (from symjax.grasp.build_scene)"

@@ -107,7 +107,11 @@ def _table_height(table: Any, hulls) -> float:
 
 
 def build_scene(
-    obj: Any, hand: Any, config: SimulationConfig | None = None, table: Any = None
+    obj: Any,
+    hand: Any,
+    config: SimulationConfig | None = None,
+    table: Any = None,
+    obstacles: Any = None,
 ) -> GraspScene:
     """Builds the grasp scene for one object and hand.
 
@@ -119,6 +123,9 @@ def build_scene(
         config: :class:`SimulationConfig`.
         table: Table height (metres), a horizontal :class:`symjax.table.TablePlane`, or None
             (the object's lowest vertex).
+        obstacles: The other objects on the table, fixed: a list of ``(vertices, faces)``
+            convex hulls (or of Decompositions), world frame, metres. A candidate whose hand
+            starts inside one fails; one that runs into one is stopped by it.
 
     Returns:
         The :class:`GraspScene`.
@@ -136,7 +143,7 @@ def build_scene(
     com = sum(p[0] * p[1] for p in parts) / mass
     radius = float(max(np.linalg.norm(v - com, axis=1).max() for v, _ in hulls))
 
-    spec = scene_spec(hulls, com, hand, cfg, height)
+    spec = scene_spec(hulls, com, hand, cfg, height, obstacle_hulls(obstacles))
     try:
         m = spec.compile()
     except ValueError as e:
@@ -154,7 +161,44 @@ def build_scene(
     )
 
 
-def scene_spec(hulls, com: np.ndarray, hand: Any, config: SimulationConfig, height: float):
+def obstacle_hulls(obstacles: Any) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Obstacle hulls as one flat list of ``(vertices (V, 3), faces (F, 3))``.
+
+    Raises:
+        InvalidInputError: Not a list of hulls or Decompositions, or a hull that is not
+            finite vertices (V >= 4, 3) with faces.
+    """
+    from symjax.decompose import Decomposition
+
+    if obstacles is None:
+        return []
+    if isinstance(obstacles, Decomposition) or not isinstance(obstacles, (list, tuple)):
+        raise InvalidInputError(
+            "obstacles must be a list of (vertices, faces) hulls or of Decompositions, got"
+            f" {type(obstacles).__name__}"
+        )
+    out = []
+    for o in obstacles:
+        if not isinstance(o, Decomposition) and not (isinstance(o, (tuple, list)) and len(o) == 2):
+            raise InvalidInputError(
+                "obstacles must be a list of (vertices, faces) hulls or of Decompositions; an"
+                f" item is a {type(o).__name__} (one hull goes in a list: [(vertices, faces)])"
+            )
+        for v, f in o.hulls if isinstance(o, Decomposition) else [o]:
+            v, f = np.asarray(v, float), np.asarray(f)
+            if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or not np.all(np.isfinite(v)):
+                raise InvalidInputError(
+                    f"an obstacle hull needs finite vertices (V >= 4, 3), got {v.shape}"
+                )
+            if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
+                raise InvalidInputError(f"an obstacle hull needs int faces (F, 3), got {f.shape}")
+            out.append((v, f.astype(int)))
+    return out
+
+
+def scene_spec(
+    hulls, com: np.ndarray, hand: Any, config: SimulationConfig, height: float, obstacles=()
+):
     """The :class:`mujoco.MjSpec` of a grasp scene (see the module docstring).
 
     Args:
@@ -163,6 +207,7 @@ def scene_spec(hulls, com: np.ndarray, hand: Any, config: SimulationConfig, heig
         hand: The :class:`symjax.hands.Hand`.
         config: :class:`SimulationConfig`.
         height: Table height, metres.
+        obstacles: Fixed hulls of the other objects, world frame (see :func:`obstacle_hulls`).
     """
     from symjax.decompose import object_spec
 
@@ -186,6 +231,12 @@ def scene_spec(hulls, com: np.ndarray, hand: Any, config: SimulationConfig, heig
         friction=[config.object_friction, 0.005, 0.0001],
         condim=3,
     )
+    for i, (v, f) in enumerate(obstacles):
+        spec.add_mesh(name=f"obstacle{i}", uservert=v.ravel(), userface=f.ravel())
+        spec.worldbody.add_geom(
+            name=f"obstacle{i}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"obstacle{i}",
+            friction=[config.object_friction, 0.005, 0.0001], condim=3,
+        )  # fmt: skip
     object_spec(
         [(v - com, f) for v, f in hulls],
         name="object",

@@ -32,6 +32,9 @@ class MotionConfig:
             table, an obstacle or another robot link (OMPL's validity check), metres.
         carried_margin: The same for a held object against the table and the other objects:
             larger, since the object may slip or swing in the hand while it is carried, metres.
+        approach_margin: The margin and the clearance of the last straight line to the grasp
+            and of the fingers' closing sweep, metres (at most ``check_margin``): a low object
+            is grasped with the fingertips just above the table.
         cartesian_step: Spacing of the waypoints of a straight-line TCP motion, metres.
         cartesian_iterations: Most IK steps per waypoint.
         cartesian_tolerance: A straight-line motion fails when the TCP ends farther than this
@@ -43,7 +46,8 @@ class MotionConfig:
         check_step: The straight lines and the found paths are checked again so densely that no
             robot point moves farther than this between two checks, metres (below
             ``check_margin``, so that nothing passes through a thin obstacle between checks).
-        simplify_time: Path shortcutting time per query, seconds.
+        simplify_time: Path shortcutting on (> 0) or off (0): OMPL's ``simplifyMax``, which is
+            bounded by iterations, not time, so that a plan repeats on a loaded CPU.
         velocity_scale: Fraction of the arm's joint speed limits the trajectory uses.
         acceleration_scale: Fraction of its acceleration limits.
         carry_scale: Further fraction of both while the object is held (lift, transfer): a
@@ -65,6 +69,7 @@ class MotionConfig:
     clearance: float = 0.005
     detection_distance: float = 0.05
     check_margin: float = 0.005
+    approach_margin: float = 0.005
     carried_margin: float = 0.02
     cartesian_step: float = 0.01
     cartesian_iterations: int = 20
@@ -101,6 +106,11 @@ class MotionConfig:
         for name in ("velocity_scale", "acceleration_scale", "carry_scale"):
             if not 0 < getattr(self, name) <= 1:
                 raise ConfigError(f"{name} = {getattr(self, name)!r}; expected in (0, 1]")
+        if not 0 <= self.approach_margin <= self.check_margin:
+            raise ConfigError(
+                f"approach_margin = {self.approach_margin} must be in [0, check_margin ="
+                f" {self.check_margin}] (metres)"
+            )
         if self.detection_distance <= self.clearance:
             raise ConfigError(
                 f"detection_distance = {self.detection_distance} must exceed clearance ="

@@ -58,8 +58,8 @@ class ArmIK:
         self._solvers: dict = {}
         self._rng = np.random.default_rng(config.seed)
 
-    def _solver(self, sm: SceneModel, avoid: tuple[str, ...]):
-        key = (id(sm), avoid)
+    def _solver(self, sm: SceneModel, avoid: tuple[str, ...], table: float | None = None):
+        key = (id(sm), avoid, table)
         if key in self._solvers:
             return self._solvers[key]
         import mink
@@ -97,6 +97,16 @@ class ArmIK:
             if arm:
                 pairs.append(([int(g)], arm))
         limits = [mink.ConfigurationLimit(m)]
+        if table is not None and env:
+            # The table keeps its own clearance (the approach's): robot-table is its own limit.
+            t = int(sm.fixed_geoms[0])
+            pairs = [(robot, [g for g in env if g != t]), *pairs[1:]]
+            if table > 0:
+                limits.append(mink.CollisionAvoidanceLimit(
+                    m, [(robot, [t])], minimum_distance_from_collisions=table,
+                    collision_detection_distance=cfg.detection_distance,
+                ))  # fmt: skip
+        pairs = [pr for pr in pairs if pr[0] and pr[1]]
         if pairs and cfg.clearance > 0:
             limits.append(mink.CollisionAvoidanceLimit(
                 m, pairs, minimum_distance_from_collisions=cfg.clearance,
@@ -214,8 +224,11 @@ class ArmIK:
         goal_R: np.ndarray,
         avoid: tuple[str, ...] = (),
         allow: tuple[tuple[str, str], ...] = (),
+        table: float | None = None,
     ) -> tuple[list[np.ndarray], float, float, tuple]:
         """Tracks the straight TCP line from ``q_start``'s TCP to ``(goal_p, goal_R)``.
+
+        ``table`` (metres) replaces the config's clearance from the table for this line.
 
         Returns:
             ``(configurations, position error at the goal, orientation error, contacts)``:
@@ -225,7 +238,7 @@ class ArmIK:
         """
         cfg = self.config
         sm = self.scene.scene_model()
-        solver = self._solver(sm, avoid)
+        solver = self._solver(sm, avoid, table)
         solver[1].set_orientation_cost(1.0)
         p0, _ = self.scene.tcp_pose(q_start)
         n = max(1, int(np.ceil(np.linalg.norm(goal_p - p0) / cfg.cartesian_step)))
@@ -240,9 +253,18 @@ class ArmIK:
             )  # fmt: skip
             col = self.scene.collisions(q, allow)
             if col:
-                # Stop at the last waypoint that keeps the margin (errors measured there).
+                # Stop at the last waypoint that keeps the margin (errors measured there), after
+                # a few shorter steps towards the contact: a waypoint spacing short of it.
                 if not path:
                     return path, np.inf, np.inf, tuple(col)
+                p_prev = p0 + (goal_p - p0) * ((i - 1) / n)
+                for f in (0.75, 0.5, 0.25):
+                    qf, *_ = self._steps(sm, solver, path[-1], p_prev + f * (p - p_prev), goal_R,
+                                         cfg.cartesian_iterations, True, cfg.position_tolerance,
+                                         cfg.orientation_tolerance)  # fmt: skip
+                    if not self.scene.collisions(qf, allow):
+                        path.append(qf)
+                        break
                 return path, *tcp_error(self.scene, path[-1], goal_p, goal_R), tuple(col)
             path.append(q)
         return path, ep, er, ()

@@ -158,7 +158,15 @@ def _plan(
     t0 = time.perf_counter()
     p_g, R_g = grasp.grasp
     allow_t = (("hand", target),) if target else ()
-    path, ep, er, col = ik.line(q_pre, p_g, R_g, avoid=(target,) if target else (), allow=allow_t)
+    # The grasp may hold a low object with the fingertips just above the table: the last
+    # straight line keeps the smaller approach margin (the replay counts real contacts).
+    scene.table_margin = config.approach_margin
+    try:
+        path, ep, er, col = ik.line(q_pre, p_g, R_g, avoid=(target,) if target else (),
+                                    allow=allow_t, table=config.approach_margin)  # fmt: skip
+        hits = closing_contacts(scene, path[-1], grasp.preshape) if path else ()
+    finally:
+        scene.table_margin = None
     clock("approach", t0)
     contacts = ", ".join(f"{a}-{b}" for a, b, _ in col[:3])
     if not path:
@@ -169,7 +177,6 @@ def _plan(
         why = f"a contact ahead: {contacts}" if col else "the collision limit or a joint limit"
         return done("ik_failed", f"approach stopped {1e3 * errs['grasp'][0]:.1f} mm from the"
                     f" grasp pose ({why})", q_g[: len(nan)])  # fmt: skip
-    hits = closing_contacts(scene, q_g, grasp.preshape)
     if hits:
         pairs = ", ".join(f"{a}-{b}" for a, b, _ in hits[:3])
         return done("start_in_collision", f"the closing fingers hit the clutter: {pairs}",

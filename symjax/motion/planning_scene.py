@@ -70,6 +70,9 @@ class PlanningScene:
         self.hand = load_hand(self.robot.hand)
         self._margin = float(margin)
         self._carried_margin = float(carried_margin)
+        #: When set, the margin of robot-table contacts instead of :attr:`margin`, metres (the
+        #: final approach to a grasp keeps the fingertips just above the table).
+        self.table_margin: float | None = None
         self._objects: dict[str, _Object] = {}
         self._version = 0
         self._attached: str | None = None
@@ -317,7 +320,17 @@ class PlanningScene:
         dist = d.contact.dist[: d.ncon]
         # Some colliders (box-capsule) also return contacts a little beyond the margin.
         carried = np.isin(g1, sm.carried_geoms) | np.isin(g2, sm.carried_geoms)
-        limit = np.where(carried, max(self._margin, self._carried_margin), self._margin)
+        wide = max(self._margin, self._carried_margin)
+        limit = np.where(carried, wide, self._margin)
+        t = int(sm.fixed_geoms[0])
+        on_table = (g1 == t) | (g2 == t)
+        if self._attached is not None:
+            # The hand that carries swings with its load too: it keeps the carried margin from
+            # the other objects (not from the table it has just lifted off).
+            hand = np.isin(g1, sm.hand_geoms) | np.isin(g2, sm.hand_geoms)
+            limit = np.where(hand & ~on_table, wide, limit)
+        if self.table_margin is not None:
+            limit = np.where(on_table & ~carried, self.table_margin, limit)
         bad = classify(sm, g1, g2, allow) & (dist < limit)
         return [(m.geom(a).name, m.geom(b).name, float(x))
                 for a, b, x, k in zip(g1, g2, dist, bad, strict=True) if k]  # fmt: skip

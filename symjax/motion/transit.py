@@ -155,7 +155,9 @@ def plan_transit(
         if not (bool(solved) and ss.haveExactSolutionPath()):
             break
         if config.simplify_time > 0:
-            ss.simplifySolution(config.simplify_time)
+            # Iteration-bounded, not time-bounded: a time limit gave other paths on a loaded CPU
+            # and made runs of the same plan differ.
+            ss.getPathSimplifier().simplifyMax(ss.getSolutionPath())
         states = ss.getSolutionPath().getStates()
         path = np.repeat(start[None], len(states), axis=0)
         for k, st in enumerate(states):

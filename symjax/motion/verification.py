@@ -46,6 +46,10 @@ class ReplayReport:
             without a target).
         seconds: Wall time of the replay.
         snapshots: ``qpos`` of the replay model at the requested times.
+        target_released: Position of the target's centre of mass when the release starts (3,),
+            metres (NaN without a target or release).
+        object_motion: Per object name, its rigid motion over the replay: the (4, 4) world
+            transform from where it started to where it rests at the end (the next scene).
     """
 
     max_tracking_error: float
@@ -58,6 +62,8 @@ class ReplayReport:
     target_final: np.ndarray
     seconds: float
     snapshots: tuple[np.ndarray, ...] = ()
+    target_released: np.ndarray = dataclasses.field(default_factory=lambda: np.full(3, np.nan))
+    object_motion: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
     @property
     def collision_free(self) -> bool:
@@ -101,6 +107,17 @@ def replay_model(
                     mass=sim.object_mass, density=sim.object_density,
                     friction=(sim.object_friction, 0.005, 0.0001))  # fmt: skip
     return spec.compile()
+
+
+def _motion(m: mujoco.MjModel, d: mujoco.MjData, body: str) -> np.ndarray:
+    """(4, 4) world transform of a free body from its model pose to its pose in ``d``."""
+    b = m.body(body)
+    T0, T1 = np.eye(4), np.eye(4)
+    mat0 = np.zeros(9)
+    mujoco.mju_quat2Mat(mat0, m.body_quat[b.id])
+    T0[:3, :3], T0[:3, 3] = mat0.reshape(3, 3), m.body_pos[b.id]
+    T1[:3, :3], T1[:3, 3] = d.xmat[b.id].reshape(3, 3), d.xpos[b.id]
+    return T1 @ np.linalg.inv(T0)
 
 
 def _feedforward(m: mujoco.MjModel, plan: ArmPlan, dq: np.ndarray, hand_q) -> np.ndarray:
@@ -182,6 +199,7 @@ def replay(
     release_t0 = times.get("release", (np.inf, np.inf))[0]
     z0 = lift_z = np.nan
     rel0, slip = None, 0.0 if target else np.nan
+    released = None
     col: dict[tuple[int, int], list[float]] = {}
     ocol: dict[tuple[int, int], list[float]] = {}
     max_err, tcp_err, rot_err = 0.0, np.nan, np.nan
@@ -208,6 +226,8 @@ def replay(
                 z0 = float(d.xipos[tgt_body][2])
             if np.isnan(lift_z) and d.time >= lift_t1:
                 lift_z = float(d.xipos[tgt_body][2])
+            if released is None and d.time >= release_t0:
+                released = d.xipos[tgt_body].copy()
             if lift_t0 <= d.time < release_t0:
                 Rt = d.site_xmat[tcp].reshape(3, 3)
                 rel = Rt.T @ (d.xipos[tgt_body] - d.site_xpos[tcp])
@@ -236,6 +256,8 @@ def replay(
         return tuple((m.geom(a).name, m.geom(b).name, round(t, 3), v) for (a, b), (t, v) in items)
 
     return ReplayReport(
+        target_released=released if released is not None else np.full(3, np.nan),
+        object_motion={name: _motion(m, d, f"obj/{name}") for name in scene.object_names},
         max_tracking_error=max_err,
         tcp_error=tcp_err,
         tcp_rotation_error=rot_err,

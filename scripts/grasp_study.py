@@ -1,0 +1,16 @@
+"""The study "plan on the completion, score on the truth": ``symjax study``.
+
+Run ``python scripts/grasp_study.py --help`` for the options.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from symjax.cli.study_command import main as _main  # noqa: E402
+
+if __name__ == "__main__":
+    sys.exit(_main(sys.argv[1:], prog="grasp_study.py"))

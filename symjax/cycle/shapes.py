@@ -1,0 +1,117 @@
+"""``PredictObjectShape`` and ``ConvexDecomposition`` for every hypothesis of a frame.
+
+``C``: one batched symmetry search over all hypotheses, the completed clouds' oriented normals,
+one batched Poisson solve cut at the table (the paper's Mir7). ``P``: the paper's Delaunay
+baseline of the observed points, cut at the table. ``T``: the true meshes (given). A hypothesis
+that fails keeps its error; the others go on.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from symjax.cycle.config import CycleConfig
+from symjax.errors import DegenerateGeometryError, SymjaxError
+
+__all__ = ["cut_at_table", "decompose_shapes", "predict_shapes"]
+
+
+def _completions(ts: Any, cfg: CycleConfig) -> list:
+    from symjax.surface import oriented_completion, poisson_reconstruct_batch
+    from symjax.symmetry import search_batch
+
+    k = len(ts.objects)
+    out: list = [None] * k
+    try:
+        res = search_batch(list(ts.objects), cfg.symmetry, cfg.execution)
+    except SymjaxError as e:
+        return [e] * k
+    ops, good = [], []
+    for i, obs in enumerate(ts.objects):
+        if not bool(res.ok[i]):
+            out[i] = res.errors[i] if res.errors else DegenerateGeometryError("no plane")
+            continue
+        try:
+            ops.append(oriented_completion(res[i], obs.camera, cfg.normals))
+            good.append(i)
+        except SymjaxError as e:
+            out[i] = e
+    if ops:
+        meshes = poisson_reconstruct_batch(ops, cfg.poisson, cfg.execution, errors="keep",
+                                           tables=[ts.table] * len(ops))  # fmt: skip
+        for i, m in zip(good, meshes, strict=True):
+            out[i] = m
+    return out
+
+
+def cut_at_table(mesh: Any, table: Any) -> Any:
+    """The mesh with every vertex below the table moved onto it: still closed, flat below.
+
+    (The baseline's back sheet is pushed along the viewing rays, which point down through
+    the table.)
+    """
+    import trimesh
+
+    n = np.asarray(table.normal, float)
+    n = n / np.linalg.norm(n)
+    v = np.asarray(mesh.vertices, float)
+    h = v @ n + float(table.offset) / np.linalg.norm(table.normal)
+    if np.all(h <= 1e-4):
+        raise DegenerateGeometryError("nothing of the mesh is above the table")
+    v = v - np.minimum(h, 0.0)[:, None] * n
+    return trimesh.Trimesh(v, np.asarray(mesh.faces), process=False)
+
+
+def _baselines(ts: Any, cfg: CycleConfig) -> list:
+    from symjax.surface import delaunay_mesh
+
+    out: list = []
+    for obs in ts.objects:
+        try:
+            out.append(
+                cut_at_table(delaunay_mesh(obs.valid_points(), obs.camera, cfg.delaunay), ts.table)
+            )
+        except SymjaxError as e:
+            out.append(e)
+    return out
+
+
+def predict_shapes(ts: Any, cfg: CycleConfig, truth: list | None = None) -> list:
+    """One mesh (``trimesh.Trimesh``, world frame) or the :class:`SymjaxError` per hypothesis.
+
+    Args:
+        ts: The frame's :class:`symjax.perception.TableScene`.
+        cfg: The cycle's config (its ``mode`` picks the shape).
+        truth: For ``T``: per hypothesis the matched true mesh, or None (unmatched).
+    """
+    if cfg.mode == "C":
+        return _completions(ts, cfg)
+    if cfg.mode == "P":
+        return _baselines(ts, cfg)
+    return [
+        m if m is not None else DegenerateGeometryError("the hypothesis is no true object")
+        for m in (truth or [None] * len(ts.objects))
+    ]
+
+
+def decompose_shapes(meshes: list, cfg: CycleConfig, truth: list | None = None) -> list:
+    """A :class:`symjax.decompose.Decomposition` (or the error) per predicted shape.
+
+    ``truth`` (mode ``T``) gives the decompositions directly.
+    """
+    from symjax.decompose import decompose
+
+    if truth is not None:
+        return [t if t is not None else m for t, m in zip(truth, meshes, strict=True)]
+    out = []
+    for m in meshes:
+        if isinstance(m, SymjaxError):
+            out.append(m)
+            continue
+        try:
+            out.append(decompose(m, cfg.decompose))
+        except SymjaxError as e:
+            out.append(e)
+    return out

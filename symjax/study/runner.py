@@ -1,0 +1,123 @@
+"""The study over many views: the completions of a batch of views in one symmetry search and one
+Poisson solve, then each view's plans and rollouts; one JSON file per view, written atomically,
+so a rerun with the same settings resumes."""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from symjax._atomic import atomic_write_json
+from symjax.errors import FileFormatError, SymjaxError
+from symjax.study.config import StudyConfig
+from symjax.study.protocol import study_view
+
+__all__ = ["planning_meshes", "run_study", "study_views"]
+
+
+def _err(e: BaseException) -> str:
+    return f"{type(e).__name__}: {e}".splitlines()[0][:240]
+
+
+def study_views(cfg: StudyConfig) -> list[tuple[str, Callable[[], Any]]]:
+    """``(name, load)`` per view: the benchmark's (or its subset's), then the extra scans'."""
+    from symjax.datasets import benchmark, load_object, render_view
+
+    bench = benchmark(list(cfg.subset) or None, cache_dir=cfg.cache_dir, seed=cfg.seed)
+    out = [(n, (lambda i=i: bench[i])) for i, n in enumerate(bench.names)]
+    for scan in cfg.extra_scans:
+        for deg in cfg.extra_orientations:
+            out.append(
+                (
+                    f"{scan}/{int(deg):03d}",
+                    lambda s=scan, d=deg: render_view(load_object(s), d, cfg.seed),
+                )
+            )
+    return out
+
+
+def planning_meshes(views: list, cfg: StudyConfig) -> list[dict[str, Any]]:
+    """``{"C": mesh or error text, "P": ...}`` per view: C by one batched search and Poisson
+    solve (cut at each view's table), P the Delaunay baseline cut there."""
+    from symjax.cycle.shapes import cut_at_table
+    from symjax.surface import delaunay_mesh, oriented_completion, poisson_reconstruct_batch
+    from symjax.symmetry import search_batch
+
+    out: list[dict[str, Any]] = [{} for _ in views]
+    try:
+        res = search_batch([v.observation for v in views], cfg.symmetry, cfg.execution)
+        ok = [bool(x) for x in res.ok]
+    except SymjaxError as e:
+        res, ok = None, [False] * len(views)
+        for o in out:
+            o["C"] = _err(e)
+    ops, idx = [], []
+    for i, v in enumerate(views):
+        if res is not None and not ok[i]:
+            out[i]["C"] = _err(res.errors[i]) if res.errors and res.errors[i] else "no plane"
+        elif res is not None:
+            try:
+                ops.append(oriented_completion(res[i], v.camera, cfg.normals))
+                idx.append(i)
+            except SymjaxError as e:
+                out[i]["C"] = _err(e)
+        try:
+            out[i]["P"] = cut_at_table(delaunay_mesh(v.points, v.camera, cfg.delaunay),
+                                       v.observation.table)  # fmt: skip
+        except SymjaxError as e:
+            out[i]["P"] = _err(e)
+    if ops:
+        meshes = poisson_reconstruct_batch(
+            ops,
+            cfg.poisson,
+            cfg.execution,
+            errors="keep",
+            tables=[views[i].observation.table for i in idx],
+        )
+        for i, m in zip(idx, meshes, strict=True):
+            out[i]["C"] = _err(m) if isinstance(m, SymjaxError) else m
+    return out
+
+
+def _file(out: Path, name: str) -> Path:
+    return out / "views" / (re.sub(r"[^A-Za-z0-9_.-]", "_", name) + ".json")
+
+
+def run_study(cfg: StudyConfig, log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+    """Runs (or resumes) the study; returns every view's record, in view order."""
+    out = Path(cfg.out_dir)
+    if out.exists() and not out.is_dir():
+        raise FileFormatError(f"out_dir {str(out)!r} is a file; expected a folder")
+    key = cfg.key()
+    views = study_views(cfg)
+    done: dict[str, dict] = {}
+    for name, _ in views:
+        p = _file(out, name)
+        if p.is_file():
+            try:
+                d = json.loads(p.read_text())
+            except (OSError, json.JSONDecodeError):
+                continue  # a damaged file is redone
+            if d.get("key") == key:
+                done[name] = d
+    todo = [(n, load) for n, load in views if n not in done]
+    log(f"{len(views)} views: {len(done)} already done in {out}, {len(todo)} to run")
+    for s in range(0, len(todo), cfg.batch):
+        t0 = time.perf_counter()
+        chunk = [(n, load()) for n, load in todo[s : s + cfg.batch]]
+        meshes = planning_meshes([v for _, v in chunk], cfg)
+        share = (time.perf_counter() - t0) / len(chunk)
+        for (name, view), m in zip(chunk, meshes, strict=True):
+            try:
+                rec = study_view(view, m, cfg)
+            except SymjaxError as e:
+                rec = {"view": name, "error": _err(e), "hands": {}}
+            rec.update(key=key, view=name, completion_seconds=round(share, 3))
+            atomic_write_json(_file(out, name), rec)
+            done[name] = rec
+        log(f"{min(s + cfg.batch, len(todo))}/{len(todo)} views ({time.perf_counter() - t0:.0f} s)")
+    return [done[n] for n, _ in views]
