@@ -2,4 +2,5 @@
 
 from symjax.cli import console
 
-console()
+if __name__ == "__main__":  # not when a spawned worker process imports this module
+    console()

@@ -126,11 +126,21 @@ def test_scenes_resume_from_their_files(tmp_path, monkeypatch):
         )
         return cycle.CycleReport(robot, cfg.mode, objs, (), "nothing plans", 1.0)
 
-    monkeypatch.setattr("symjax.cycle.grasp_cycle.clear_table", fake_clear)
+    def flaky(scene, robot, cfg, pictures=False):
+        if cfg.mode == "T":
+            from symjax.errors import DegenerateGeometryError
+
+            raise DegenerateGeometryError("coacd crashed on this input")
+        return fake_clear(scene, robot, cfg, pictures)
+
+    monkeypatch.setattr("symjax.cycle.grasp_cycle.clear_table", flaky)
     monkeypatch.setattr("symjax.datasets.scan_scene", lambda *a, **k: Scene())
     specs = batch.scene_specs(("kth",), 2, 0, (2, 3))
     assert [s.n_objects for s in specs] == [2, 3]
     base = cycle.CycleConfig()
+    # A scene that fails (mode T here) is written as failed and the run goes on.
+    bad = batch.run_scenes(specs[:1], ("T",), base, tmp_path / "t", progress=lambda s: None)
+    assert "coacd crashed" in bad[0]["error"]
     out = batch.run_scenes(specs, ("C", "P"), base, tmp_path, progress=lambda s: None)
     assert len(out) == 4 and len(calls) == 4
     again = batch.run_scenes(specs, ("C", "P"), base, tmp_path, progress=lambda s: None)
@@ -143,7 +153,8 @@ def test_scenes_resume_from_their_files(tmp_path, monkeypatch):
     assert len(calls) == 7
     from symjax.cycle.summary import summarise, write_report
 
-    table = summarise(out)
+    table = summarise(out + bad)
+    assert table["kth"]["C"]["failed_scenes"] == 0 and "T" not in table["kth"]
     assert table["kth"]["C"]["objects"] == 4 and table["kth"]["C"]["cleared"] == 2
     assert table["kth"]["P"]["not_cleared_by_stage"] == {"PlanGrasp": 2}
     paths = write_report(out, tmp_path)

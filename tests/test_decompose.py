@@ -151,3 +151,13 @@ def test_large_meshes_are_simplified_before_coacd(tmp_path, monkeypatch):
     assert abs(vol - m.volume) < 0.1 * m.volume  # 64-vertex hulls cut a little off
     v, f = np.asarray(m.vertices), np.asarray(m.faces)
     assert hulls_module.simplify(v, f, 0)[1] is f  # max_faces = 0 keeps every face
+
+
+def test_a_crash_in_the_worker_is_a_typed_error_and_the_next_call_works():
+    import os
+
+    from symjax.decompose.worker import run_isolated
+
+    with pytest.raises(DegenerateGeometryError, match="crashed"):
+        run_isolated(os._exit, 3)  # the worker dies as a segfaulting coacd would
+    assert run_isolated(abs, -2) == 2  # a new worker

@@ -35,7 +35,7 @@ class StudyCommand(PresetArgs):
     top: int = 5
     subset: tuple[str, ...] = ()
     extra_scans: Annotated[tuple[str, ...], tyro.conf.arg(name="extra-scans")] = (
-        "002_master_chef_can", "065-a_cups", "013_apple", "024_bowl")  # fmt: skip
+        "002_master_chef_can", "010_potted_meat_can", "013_apple", "024_bowl")  # fmt: skip
     backend: Literal["mujoco", "mjx"] | None = None
 
 

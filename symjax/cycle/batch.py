@@ -12,7 +12,7 @@ from typing import Any
 
 from symjax._atomic import atomic_write_json
 from symjax.cycle.config import CycleConfig
-from symjax.errors import FileFormatError, InvalidInputError
+from symjax.errors import FileFormatError, InvalidInputError, SymjaxError
 
 __all__ = ["SceneSpec", "run_scenes", "scene_specs"]
 
@@ -96,7 +96,21 @@ def run_scenes(specs: list, modes: tuple[str, ...], base: CycleConfig, out_dir: 
             if scene is None:
                 scene = scan_scene(spec.robot, spec.n_objects, seed=spec.seed)
             t0 = time.perf_counter()
-            rep = clear_table(scene, spec.robot, cfg, pictures=want_pic)
+            try:
+                rep = clear_table(scene, spec.robot, cfg, pictures=want_pic)
+            except SymjaxError as e:  # this scene fails, the run goes on
+                d = {
+                    "key": key,
+                    "scene": dataclasses.asdict(spec),
+                    "names": list(scene.names),
+                    "robot": spec.robot,
+                    "mode": mode,
+                    "error": f"{type(e).__name__}: {e}",
+                }
+                atomic_write_json(path, d)
+                results.append(d)
+                progress(f"{spec.name} {mode}: failed: {d['error'][:200]}")
+                continue
             d = {"key": key, "scene": dataclasses.asdict(spec), "names": list(scene.names),
                  **rep.to_dict()}  # fmt: skip
             if want_pic:

@@ -21,7 +21,11 @@ def _median(x) -> float | None:
 def summarise(results: list[dict]) -> dict[str, Any]:
     """``{robot: {mode: row}}`` from the per-scene result dicts."""
     out: dict[str, Any] = {}
+    failed: dict[tuple[str, str], int] = {}
     for d in results:
+        if "error" in d:
+            failed[d["robot"], d["mode"]] = failed.get((d["robot"], d["mode"]), 0) + 1
+            continue
         out.setdefault(d["robot"], {}).setdefault(d["mode"], []).append(d)
     table: dict[str, Any] = {}
     for robot, modes in out.items():
@@ -36,6 +40,7 @@ def summarise(results: list[dict]) -> dict[str, Any]:
                        for s in STAGES}  # fmt: skip
             table.setdefault(robot, {})[mode] = {
                 "scenes": len(ds),
+                "failed_scenes": failed.get((robot, mode), 0),
                 "objects": len(objs),
                 "cleared": sum(o["cleared"] for o in objs),
                 "cleared_share": round(sum(o["cleared"] for o in objs) / max(len(objs), 1), 3),

@@ -146,14 +146,21 @@ def simplify(v: np.ndarray, f: np.ndarray, max_faces: int) -> tuple[np.ndarray, 
 
 
 def _run_coacd(v: np.ndarray, f: np.ndarray, config: DecomposeConfig, closed: bool) -> list:
-    import coacd  # heavy, optional at import time
+    from symjax.decompose.worker import run_isolated
 
-    coacd.set_log_level("error")
     mode = config.preprocess
     if mode == "auto":
         # Whether the mesh given was closed, not its decimation (which can leave a few
         # non-manifold edges): the remeshing took 5x longer than the decomposition.
         mode = "off" if closed else "on"
+    return run_isolated(_coacd_parts, v, f, config, mode)
+
+
+def _coacd_parts(v: np.ndarray, f: np.ndarray, config: DecomposeConfig, mode: str) -> list:
+    """coacd itself (runs in the worker process)."""
+    import coacd  # heavy, optional at import time
+
+    coacd.set_log_level("error")
     parts = coacd.run_coacd(
         coacd.Mesh(v, f),
         threshold=config.threshold,
@@ -206,6 +213,10 @@ def decompose(
 
     Returns:
         The :class:`Decomposition`.
+
+    Raises:
+        DegenerateGeometryError: coacd gave no hull with volume, or crashed on the mesh (it
+            runs in a worker process, see :mod:`symjax.decompose.worker`).
     """
     t0 = time.perf_counter()
     config = config if config is not None else DecomposeConfig()

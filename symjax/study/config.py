@@ -42,7 +42,12 @@ class StudyConfig(ShapeToGraspStages):
     hands: tuple[tuple[str, str], ...] = (("sdh", "kth"), ("barrett", "uji"))
     top: int = 5
     subset: tuple[str, ...] = ()
-    extra_scans: tuple[str, ...] = ("002_master_chef_can", "065-a_cups", "013_apple", "024_bowl")
+    extra_scans: tuple[str, ...] = (
+        "002_master_chef_can",
+        "010_potted_meat_can",
+        "013_apple",
+        "024_bowl",
+    )
     extra_orientations: tuple[float, ...] = (0.0, 90.0, 180.0, 270.0)
     batch: int = 16
     backend: Literal["mujoco", "mjx"] | None = None

@@ -24,12 +24,14 @@ def _err(e: BaseException) -> str:
 
 
 def study_views(cfg: StudyConfig) -> list[tuple[str, Callable[[], Any]]]:
-    """``(name, load)`` per view: the benchmark's (or its subset's), then the extra scans'."""
+    """``(name, load)`` per view: the benchmark's (or its subset's), then the extra scans' (those
+    not in the benchmark already)."""
     from symjax.datasets import benchmark, load_object, render_view
 
     bench = benchmark(list(cfg.subset) or None, cache_dir=cfg.cache_dir, seed=cfg.seed)
     out = [(n, (lambda i=i: bench[i])) for i, n in enumerate(bench.names)]
-    for scan in cfg.extra_scans:
+    have = {n.split("/")[0] for n in bench.names}
+    for scan in (s for s in cfg.extra_scans if s not in have):  # a benchmark scan once
         for deg in cfg.extra_orientations:
             out.append(
                 (
