@@ -124,12 +124,17 @@ def test_approach_near_the_table_keeps_the_hand_off_it():
     assert all("table" in (a, b) for a, b, _ in col)
     sm = scene.scene_model()
     m, d = sm.model, sm.data
-    gaps = []
-    for q in path:
-        d.qpos[:] = q
-        mujoco.mj_kinematics(m, d)
-        gaps.append(min(mujoco.mj_geomDistance(m, d, int(h), int(sm.fixed_geoms[0]), 0.1, None)
-                        for h in sm.hand_geoms))  # fmt: skip
+
+    def table_gaps(path):
+        out = []
+        for q in path:
+            d.qpos[:] = q
+            mujoco.mj_kinematics(m, d)
+            out.append(min(mujoco.mj_geomDistance(m, d, int(h), int(sm.fixed_geoms[0]), 0.1, None)
+                           for h in sm.hand_geoms))  # fmt: skip
+        return out
+
+    gaps = table_gaps(path)
     assert min(gaps) >= cfg.check_margin - 1e-4
     assert gaps[-1] < 0.02  # it got close
     # The final approach's own margin (the cycle's 1 mm): closer to the table, never into it.
@@ -139,12 +144,7 @@ def test_approach_near_the_table_keeps_the_hand_off_it():
     finally:
         scene.table_margin = None
     assert path2 and col2, col2
-    near = []
-    for q in path2:
-        d.qpos[:] = q
-        mujoco.mj_kinematics(m, d)
-        near.append(min(mujoco.mj_geomDistance(m, d, int(h), int(sm.fixed_geoms[0]), 0.1, None)
-                        for h in sm.hand_geoms))  # fmt: skip
+    near = table_gaps(path2)
     assert 0.001 - 1e-4 <= min(near) < cfg.check_margin, (col2, near[-3:])
 
 
