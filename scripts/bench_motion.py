@@ -220,7 +220,11 @@ def bench_scenes(robot: str, n_scenes: int, n_replays: int, cfg, preset) -> list
                                              for c in rep.collisions][:4],
                                 "tcp_error_mm": round(1e3 * rep.tcp_error, 2),
                                 "lifted": rep.lifted, "slip_mm": round(1e3 * rep.slip, 1),
-                                "delivered": bool(np.hypot(*(rep.target_final[:2] - drop)) < 0.2),
+                                # The cycle's test: released over the drop-off, off the table.
+                                "delivered": bool(np.hypot(*(rep.target_released[:2] - drop)) < 0.2
+                                                  and rep.target_final[2] < table - 0.02),
+                                "rests_near_dropoff": bool(
+                                    np.hypot(*(rep.target_final[:2] - drop)) < 0.2),
                                 "tracking_rad": round(rep.max_tracking_error, 4)})  # fmt: skip
     n = sum(status.values())
     tcp = [x["tcp_error_mm"] for x in replays]
@@ -235,6 +239,7 @@ def bench_scenes(robot: str, n_scenes: int, n_replays: int, cfg, preset) -> list
         "tcp_error_mm": _stats(tcp), "tcp_error_under_5mm": sum(t < 5 for t in tcp),
         "lifted": sum(x["lifted"] for x in replays),
         "delivered": sum(x["delivered"] for x in replays),
+        "rests_near_dropoff": sum(x["rests_near_dropoff"] for x in replays),
         "slip_mm": _stats([x["slip_mm"] for x in replays]),
         "collision_examples": [x for x in replays if x["collisions"]][:3],
     })  # fmt: skip
