@@ -87,3 +87,9 @@ def config_or_default(value: object, cls: type, name: str = "config"):
     if not isinstance(value, cls):
         raise ConfigError(f"{name} must be a {cls.__name__} or None, got {type(value).__name__}")
     return value
+
+
+def one_line(e: BaseException, limit: int = 300) -> str:
+    """``"<ErrorType>: <message>"``, first line only, at most ``limit`` characters: an error as
+    a result file or a report row keeps it."""
+    return f"{type(e).__name__}: {e}".splitlines()[0][:limit]

@@ -16,16 +16,12 @@ import numpy as np
 from symjax.cycle.config import CycleConfig
 from symjax.cycle.report import CycleReport, ObjectOutcome, Round
 from symjax.cycle.shapes import decompose_shapes, predict_shapes
-from symjax.errors import InvalidInputError, SymjaxError, config_or_default
+from symjax.errors import InvalidInputError, SymjaxError, config_or_default, one_line
 
 __all__ = ["GENERATORS", "clear_table"]
 
 #: Each robot's own candidate generator (paper Section IV-A).
 GENERATORS = {"kth": "kth", "uji": "uji"}
-
-
-def _err(e: BaseException) -> str:
-    return f"{type(e).__name__}: {e}".splitlines()[0][:240]
 
 
 def _frame(world: Any, data: Any) -> tuple[Any, Any]:
@@ -47,7 +43,7 @@ def _plan_object(i, meshes, decs, ts, robot, hand, cfg, names) -> tuple[dict, An
                            "stable": 0, "arm_tried": 0, "seconds": {}}  # fmt: skip
     for stage, item in (("PredictObjectShape", meshes[i]), ("ConvexDecomposition", decs[i])):
         if isinstance(item, SymjaxError):
-            rec.update(stage=stage, reason=_err(item))
+            rec.update(stage=stage, reason=one_line(item, 240))
             return rec, None
     others = [d for j, d in enumerate(decs) if j != i and not isinstance(d, SymjaxError)]
     try:
@@ -55,7 +51,7 @@ def _plan_object(i, meshes, decs, ts, robot, hand, cfg, names) -> tuple[dict, An
                         obstacles=others, candidates=cfg.candidates, simulation=cfg.simulation,
                         execution=cfg.execution, backend=cfg.backend)  # fmt: skip
     except SymjaxError as e:
-        rec.update(stage="GetGraspCandidates", reason=_err(e))
+        rec.update(stage="GetGraspCandidates", reason=one_line(e, 240))
         return rec, None
     rec["seconds"] = {"GetGraspCandidates": gp.seconds["candidates"],
                       "PlanGrasp": gp.seconds["scene"] + gp.seconds["simulate"]}  # fmt: skip
@@ -82,7 +78,7 @@ def _plan_object(i, meshes, decs, ts, robot, hand, cfg, names) -> tuple[dict, An
     try:
         plans = motion.plan_arm_batch(scene, poses, config=cfg.motion, first_success=True)
     except SymjaxError as e:
-        plans, rec["reason"] = [], _err(e)
+        plans, rec["reason"] = [], one_line(e, 240)
     rec["seconds"]["PlanArmTrajectory"] = time.perf_counter() - t0
     rec["arm_tried"] = len(plans)
     ok = next((p for p in plans if p.ok), None)

@@ -14,15 +14,11 @@ import time
 import numpy as np
 
 from symjax import _interrupt
-from symjax.errors import SymjaxError
+from symjax.errors import SymjaxError, one_line
 from symjax.evaluation.config import POISSON_DEPTHS, EvalConfig
 from symjax.evaluation.records import MeshResult, PlaneResult, ViewRecord
 
 __all__ = ["process_batch"]
-
-
-def _err(e: BaseException) -> str:
-    return f"{type(e).__name__}: {e}".splitlines()[0][:300]
 
 
 def _deviation_mesh(mesh):
@@ -119,7 +115,7 @@ def _poisson(ops: list, depth: int, cfg: EvalConfig, tables: list) -> list:
             tables=[tables[i] for i in good],
         )
         for i, m in zip(good, meshes, strict=True):
-            out[i] = _err(m) if isinstance(m, SymjaxError) else m
+            out[i] = one_line(m) if isinstance(m, SymjaxError) else m
     return out
 
 
@@ -156,7 +152,7 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
             try:
                 ops[i] = oriented_completion(results[i], views[i].camera, config.normals)
             except SymjaxError as e:
-                op_errors[i] = _err(e)
+                op_errors[i] = one_line(e)
             timings[i]["normals"] = time.perf_counter() - t1
 
     built: dict[str, list] = {}  # method -> per view: a mesh or an error message
@@ -176,7 +172,7 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
             try:
                 built["Del"][i] = delaunay_mesh(v.points, v.camera, config.delaunay)
             except SymjaxError as e:
-                built["Del"][i] = _err(e)
+                built["Del"][i] = one_line(e)
             timings[i]["delaunay"] = time.perf_counter() - t1
 
     records = []
@@ -193,7 +189,7 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
                 try:
                     res = _measure(v, m, mesh, config)
                 except SymjaxError as e:
-                    res = MeshResult(m, False, error=_err(e), n_faces=int(len(mesh.faces)))
+                    res = MeshResult(m, False, error=one_line(e), n_faces=int(len(mesh.faces)))
             timings[i][f"metrics_{m}"] = time.perf_counter() - t1
             per_method.append(res)
         records.append(

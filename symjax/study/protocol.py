@@ -12,14 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from symjax.errors import SymjaxError
+from symjax.errors import SymjaxError, one_line
 from symjax.study.config import PLANNING_MESHES, StudyConfig
 
 __all__ = ["study_view"]
-
-
-def _err(e: BaseException) -> str:
-    return f"{type(e).__name__}: {e}".splitlines()[0][:240]
 
 
 def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str, Any]:
@@ -52,7 +48,7 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
         try:
             decs[k] = decompose(m, cfg.decompose)
         except SymjaxError as e:
-            decs[k] = _err(e)
+            decs[k] = one_line(e, 240)
     if isinstance(decs["T"], str):
         raise SymjaxError(f"{view.name}: the true mesh cannot be decomposed: {decs['T']}")
     rec: dict[str, Any] = {"view": view.name, "dataset": view.dataset, "object": view.object_name,
@@ -72,7 +68,7 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
                                 simulation=cfg.simulation, execution=cfg.execution,
                                 backend=cfg.backend)  # fmt: skip
             except SymjaxError as e:
-                rows[k] = {"planned": 0, "predicted": [], "error": _err(e)}
+                rows[k] = {"planned": 0, "predicted": [], "error": one_line(e, 240)}
                 continue
             n = min(cfg.top, len(gp))
             rows[k] = {

@@ -12,15 +12,11 @@ from pathlib import Path
 from typing import Any
 
 from symjax._atomic import atomic_write_json
-from symjax.errors import FileFormatError, SymjaxError
+from symjax.errors import FileFormatError, SymjaxError, one_line
 from symjax.study.config import StudyConfig
 from symjax.study.protocol import study_view
 
 __all__ = ["planning_meshes", "run_study", "study_views"]
-
-
-def _err(e: BaseException) -> str:
-    return f"{type(e).__name__}: {e}".splitlines()[0][:240]
 
 
 def study_views(cfg: StudyConfig) -> list[tuple[str, Callable[[], Any]]]:
@@ -56,22 +52,24 @@ def planning_meshes(views: list, cfg: StudyConfig) -> list[dict[str, Any]]:
     except SymjaxError as e:
         res, ok = None, [False] * len(views)
         for o in out:
-            o["C"] = _err(e)
+            o["C"] = one_line(e, 240)
     ops, idx = [], []
     for i, v in enumerate(views):
         if res is not None and not ok[i]:
-            out[i]["C"] = _err(res.errors[i]) if res.errors and res.errors[i] else "no plane"
+            out[i]["C"] = (
+                one_line(res.errors[i], 240) if res.errors and res.errors[i] else "no plane"
+            )
         elif res is not None:
             try:
                 ops.append(oriented_completion(res[i], v.camera, cfg.normals))
                 idx.append(i)
             except SymjaxError as e:
-                out[i]["C"] = _err(e)
+                out[i]["C"] = one_line(e, 240)
         try:
             out[i]["P"] = cut_at_table(delaunay_mesh(v.points, v.camera, cfg.delaunay),
                                        v.observation.table)  # fmt: skip
         except SymjaxError as e:
-            out[i]["P"] = _err(e)
+            out[i]["P"] = one_line(e, 240)
     if ops:
         meshes = poisson_reconstruct_batch(
             ops,
@@ -81,7 +79,7 @@ def planning_meshes(views: list, cfg: StudyConfig) -> list[dict[str, Any]]:
             tables=[views[i].observation.table for i in idx],
         )
         for i, m in zip(idx, meshes, strict=True):
-            out[i]["C"] = _err(m) if isinstance(m, SymjaxError) else m
+            out[i]["C"] = one_line(m, 240) if isinstance(m, SymjaxError) else m
     return out
 
 
@@ -117,7 +115,7 @@ def run_study(cfg: StudyConfig, log: Callable[[str], None] = print) -> list[dict
             try:
                 rec = study_view(view, m, cfg)
             except SymjaxError as e:
-                rec = {"view": name, "error": _err(e), "hands": {}}
+                rec = {"view": name, "error": one_line(e, 240), "hands": {}}
             rec.update(key=key, view=name, completion_seconds=round(share, 3))
             atomic_write_json(_file(out, name), rec)
             done[name] = rec
