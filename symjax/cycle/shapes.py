@@ -15,21 +15,39 @@ import numpy as np
 from symjax.cycle.config import CycleConfig
 from symjax.errors import DegenerateGeometryError, SymjaxError
 
-__all__ = ["cut_at_table", "decompose_shapes", "predict_shapes"]
+__all__ = [
+    "baseline_meshes",
+    "completed_meshes",
+    "cut_at_table",
+    "decompose_shapes",
+    "predict_shapes",
+]
 
 
-def _completions(ts: Any, cfg: CycleConfig) -> list:
+def completed_meshes(observations: list, tables: list, cfg: Any) -> list:
+    """The paper's Mir7 per observation: one batched symmetry search, the completed clouds'
+    oriented normals, one batched Poisson solve, each mesh cut at its table.
+
+    Args:
+        observations: :class:`symjax.Observation` list.
+        tables: The table plane each stands on.
+        cfg: A config with ``symmetry``, ``normals``, ``poisson`` and ``execution``
+            (:class:`~symjax.configs.stages.ShapeToGraspStages`).
+
+    Returns:
+        Per observation a ``trimesh.Trimesh`` (world frame) or the :class:`SymjaxError`.
+    """
     from symjax.surface import oriented_completion, poisson_reconstruct_batch
     from symjax.symmetry import search_batch
 
-    k = len(ts.objects)
+    k = len(observations)
     out: list = [None] * k
     try:
-        res = search_batch(list(ts.objects), cfg.symmetry, cfg.execution)
+        res = search_batch(list(observations), cfg.symmetry, cfg.execution)
     except SymjaxError as e:
         return [e] * k
     ops, good = [], []
-    for i, obs in enumerate(ts.objects):
+    for i, obs in enumerate(observations):
         if not bool(res.ok[i]):
             out[i] = res.errors[i] if res.errors else DegenerateGeometryError("no plane")
             continue
@@ -40,7 +58,7 @@ def _completions(ts: Any, cfg: CycleConfig) -> list:
             out[i] = e
     if ops:
         meshes = poisson_reconstruct_batch(ops, cfg.poisson, cfg.execution, errors="keep",
-                                           tables=[ts.table] * len(ops))  # fmt: skip
+                                           tables=[tables[i] for i in good])  # fmt: skip
         for i, m in zip(good, meshes, strict=True):
             out[i] = m
     return out
@@ -64,15 +82,16 @@ def cut_at_table(mesh: Any, table: Any) -> Any:
     return trimesh.Trimesh(v, np.asarray(mesh.faces), process=False)
 
 
-def _baselines(ts: Any, cfg: CycleConfig) -> list:
+def baseline_meshes(observations: list, tables: list, cfg: Any) -> list:
+    """The paper's Delaunay baseline of each observation's points (``cfg.delaunay``), cut at
+    its table: a ``trimesh.Trimesh`` or the :class:`SymjaxError` per observation."""
     from symjax.surface import delaunay_mesh
 
     out: list = []
-    for obs in ts.objects:
+    for obs, table in zip(observations, tables, strict=True):
         try:
-            out.append(
-                cut_at_table(delaunay_mesh(obs.valid_points(), obs.camera, cfg.delaunay), ts.table)
-            )
+            out.append(cut_at_table(delaunay_mesh(obs.valid_points(), obs.camera, cfg.delaunay),
+                                    table))  # fmt: skip
         except SymjaxError as e:
             out.append(e)
     return out
@@ -86,10 +105,9 @@ def predict_shapes(ts: Any, cfg: CycleConfig, truth: list | None = None) -> list
         cfg: The cycle's config (its ``mode`` picks the shape).
         truth: For ``T``: per hypothesis the matched true mesh, or None (unmatched).
     """
-    if cfg.mode == "C":
-        return _completions(ts, cfg)
-    if cfg.mode == "P":
-        return _baselines(ts, cfg)
+    if cfg.mode in ("C", "P"):
+        make = completed_meshes if cfg.mode == "C" else baseline_meshes
+        return make(ts.objects, [ts.table] * len(ts.objects), cfg)
     return [
         m if m is not None else DegenerateGeometryError("the hypothesis is no true object")
         for m in (truth or [None] * len(ts.objects))

@@ -40,47 +40,19 @@ def study_views(cfg: StudyConfig) -> list[tuple[str, Callable[[], Any]]]:
 
 def planning_meshes(views: list, cfg: StudyConfig) -> list[dict[str, Any]]:
     """``{"C": mesh or error text, "P": ...}`` per view: C by one batched search and Poisson
-    solve (cut at each view's table), P the Delaunay baseline cut there."""
-    from symjax.cycle.shapes import cut_at_table
-    from symjax.surface import delaunay_mesh, oriented_completion, poisson_reconstruct_batch
-    from symjax.symmetry import search_batch
+    solve (cut at each view's table), P the Delaunay baseline cut there (the grasp cycle's
+    :func:`~symjax.cycle.shapes.completed_meshes` and
+    :func:`~symjax.cycle.shapes.baseline_meshes`)."""
+    from symjax.cycle.shapes import baseline_meshes, completed_meshes
 
-    out: list[dict[str, Any]] = [{} for _ in views]
-    try:
-        res = search_batch([v.observation for v in views], cfg.symmetry, cfg.execution)
-        ok = [bool(x) for x in res.ok]
-    except SymjaxError as e:
-        res, ok = None, [False] * len(views)
-        for o in out:
-            o["C"] = one_line(e, 240)
-    ops, idx = [], []
-    for i, v in enumerate(views):
-        if res is not None and not ok[i]:
-            out[i]["C"] = (
-                one_line(res.errors[i], 240) if res.errors and res.errors[i] else "no plane"
-            )
-        elif res is not None:
-            try:
-                ops.append(oriented_completion(res[i], v.camera, cfg.normals))
-                idx.append(i)
-            except SymjaxError as e:
-                out[i]["C"] = one_line(e, 240)
-        try:
-            out[i]["P"] = cut_at_table(delaunay_mesh(v.points, v.camera, cfg.delaunay),
-                                       v.observation.table)  # fmt: skip
-        except SymjaxError as e:
-            out[i]["P"] = one_line(e, 240)
-    if ops:
-        meshes = poisson_reconstruct_batch(
-            ops,
-            cfg.poisson,
-            cfg.execution,
-            errors="keep",
-            tables=[views[i].observation.table for i in idx],
-        )
-        for i, m in zip(idx, meshes, strict=True):
-            out[i]["C"] = one_line(m, 240) if isinstance(m, SymjaxError) else m
-    return out
+    obs = [v.observation for v in views]
+    tables = [o.table for o in obs]
+
+    def kept(m):
+        return one_line(m, 240) if isinstance(m, SymjaxError) else m
+
+    done = zip(completed_meshes(obs, tables, cfg), baseline_meshes(obs, tables, cfg), strict=True)
+    return [{"C": kept(c), "P": kept(p)} for c, p in done]
 
 
 def _file(out: Path, name: str) -> Path:
