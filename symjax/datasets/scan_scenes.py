@@ -114,7 +114,7 @@ def _settle(meshes, xy, yaw, height: float, seconds: float = 1.5):
     spec = mujoco.MjSpec()
     spec.option.timestep = 0.002
     spec.option.impratio = sim.impratio
-    friction = [sim.object_friction, 0.005, 0.0001]
+    friction = list(sim.geom_friction)
     spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1.0, 1.0, 0.01],
                             pos=[0.65, 0.0, height - 0.01], friction=friction)  # fmt: skip
     for i, (m, p, a) in enumerate(zip(meshes, xy, yaw, strict=True)):

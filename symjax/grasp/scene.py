@@ -228,14 +228,14 @@ def scene_spec(
         type=mujoco.mjtGeom.mjGEOM_PLANE,
         size=[0.0, 0.0, 1.0],
         pos=[0.0, 0.0, height],
-        friction=[config.object_friction, 0.005, 0.0001],
+        friction=list(config.geom_friction),
         condim=3,
     )
     for i, (v, f) in enumerate(obstacles):
         spec.add_mesh(name=f"obstacle{i}", uservert=v.ravel(), userface=f.ravel())
         spec.worldbody.add_geom(
             name=f"obstacle{i}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"obstacle{i}",
-            friction=[config.object_friction, 0.005, 0.0001], condim=3,
+            friction=list(config.geom_friction), condim=3,
         )  # fmt: skip
     object_spec(
         [(v - com, f) for v, f in hulls],
@@ -243,7 +243,7 @@ def scene_spec(
         pos=com,
         mass=config.object_mass,
         density=config.object_density,
-        friction=(config.object_friction, 0.005, 0.0001),
+        friction=config.geom_friction,
         spec=spec,
     )
     weld = spec.add_equality(

@@ -159,6 +159,11 @@ class SimulationConfig:
         )
 
     @property
+    def geom_friction(self) -> tuple[float, float, float]:
+        """MuJoCo friction (sliding, torsional, rolling) of the objects, obstacles and table."""
+        return (self.object_friction, 0.005, 0.0001)
+
+    @property
     def n_steps(self) -> int:
         """Total steps of one rollout."""
         return sum(self.phase_steps)

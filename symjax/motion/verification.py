@@ -105,7 +105,7 @@ def replay_model(
         c = np.concatenate([v for v, _ in world]).mean(axis=0)
         object_spec([(v - c, f) for v, f in world], name=f"obj/{name}", pos=c, spec=spec,
                     mass=sim.object_mass, density=sim.object_density,
-                    friction=(sim.object_friction, 0.005, 0.0001))  # fmt: skip
+                    friction=sim.geom_friction)  # fmt: skip
     return spec.compile()
 
 
