@@ -9,6 +9,7 @@ objects may have been pushed), so every shape is predicted again from the new fr
 from __future__ import annotations
 
 import time
+from collections import Counter
 from typing import Any
 
 import numpy as np
@@ -83,9 +84,7 @@ def _plan_object(i, meshes, decs, ts, robot, hand, cfg, names) -> tuple[dict, An
     rec["arm_tried"] = len(plans)
     ok = next((p for p in plans if p.ok), None)
     if ok is None:
-        statuses: dict[str, int] = {}
-        for p in plans:
-            statuses[p.status] = statuses.get(p.status, 0) + 1
+        statuses = Counter(p.status for p in plans)
         rec["arm_reasons"] = sorted({p.reason[:160] for p in plans})[:5]
         rec.update(stage="PlanArmTrajectory",
                    reason=rec["reason"] or f"no arm plan for {len(poses)} distinct stable grasps: "

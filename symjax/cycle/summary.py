@@ -6,16 +6,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from symjax._atomic import atomic_write_json, atomic_write_text
+from symjax._timing import median_p95
 from symjax.cycle.config import STAGES
 
 __all__ = ["summarise", "write_report"]
 
 
 def _median(x) -> float | None:
-    return round(float(np.median(x)), 2) if len(x) else None
+    return median_p95(x, 2)["median"]
 
 
 def summarise(results: list[dict]) -> dict[str, Any]:

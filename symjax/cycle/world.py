@@ -50,14 +50,14 @@ class SimWorld:
         truth = self.scene.labels
         out = []
         for h in range(n):
-            lab = truth[hypothesis_labels == h]
-            lab = lab[lab > 0]
+            mine = truth[hypothesis_labels == h]
+            lab = mine[mine > 0]
             if len(lab) == 0:
                 out.append(-1)
                 continue
             counts = np.bincount(lab)
             best = int(np.argmax(counts))
-            share = counts[best] / max(int(np.sum(hypothesis_labels == h)), 1)
+            share = counts[best] / len(mine)
             out.append(best - 1 if share >= self.config.min_match else -1)
         return out
 
