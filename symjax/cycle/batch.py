@@ -96,23 +96,16 @@ def run_scenes(specs: list, modes: tuple[str, ...], base: CycleConfig, out_dir: 
             if scene is None:
                 scene = scan_scene(spec.robot, spec.n_objects, seed=spec.seed)
             t0 = time.perf_counter()
+            head = {"key": key, "scene": dataclasses.asdict(spec), "names": list(scene.names)}
             try:
                 rep = clear_table(scene, spec.robot, cfg, pictures=want_pic)
             except SymjaxError as e:  # this scene fails, the run goes on
-                d = {
-                    "key": key,
-                    "scene": dataclasses.asdict(spec),
-                    "names": list(scene.names),
-                    "robot": spec.robot,
-                    "mode": mode,
-                    "error": f"{type(e).__name__}: {e}",
-                }
+                d = {**head, "robot": spec.robot, "mode": mode, "error": f"{type(e).__name__}: {e}"}
                 atomic_write_json(path, d)
                 results.append(d)
                 progress(f"{spec.name} {mode}: failed: {d['error'][:200]}")
                 continue
-            d = {"key": key, "scene": dataclasses.asdict(spec), "names": list(scene.names),
-                 **rep.to_dict()}  # fmt: skip
+            d = {**head, **rep.to_dict()}
             if want_pic:
                 from symjax.cycle.pictures import cycle_picture
 

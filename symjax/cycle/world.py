@@ -94,16 +94,14 @@ class SimWorld:
             T = rep.object_motion[n] @ self.scene.poses[i]
             centre = rep.object_motion[n][:3, :3] @ self.scene.meshes[i].centroid \
                 + rep.object_motion[n][:3, 3]  # fmt: skip
-            off_table = bool(centre[2] < h - 0.02)
-            if i == k and off_table and np.hypot(*(released[:2] - drop)) < cfg.dropoff_radius:
-                delivered = True
-            elif off_table and i != k:
-                knocked.append(self.names[self.alive[i]])
-            elif off_table:
-                continue  # the target fell off the table, not over the bin
-            else:
-                keep.append(i)
-                poses.append(T)
+            if centre[2] < h - 0.02:  # off the table: over the bin, or dropped, or knocked off
+                if i == k:
+                    delivered = bool(np.hypot(*(released[:2] - drop)) < cfg.dropoff_radius)
+                else:
+                    knocked.append(self.names[self.alive[i]])
+                continue
+            keep.append(i)
+            poses.append(T)
         result = {
             "delivered": delivered,
             "lifted": bool(rep.lifted),
