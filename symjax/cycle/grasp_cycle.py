@@ -103,8 +103,9 @@ def clear_table(
             (a real frame: one round planned, nothing executed; modes C and P only).
         robot: ``"kth"``, ``"uji"`` or a :class:`symjax.robots.Robot`; a scene's own robot.
         config: :class:`CycleConfig` (mode C by default).
-        pictures: Keep what the report's pictures need (the first frame's segmentation,
-            the shapes, the executed plans and their key frames) in ``report.extras``.
+        pictures: Keep what the report's pictures need (the first frame and its hypotheses;
+            per executed pick the shapes, the plan, its replay with key frames and the true
+            scene it ran in) in ``report.extras``.
 
     Returns:
         A :class:`CycleReport`.
@@ -200,7 +201,6 @@ def clear_table(
             break
         t0 = time.perf_counter()
         shots = _key_times(plan) if pictures else ()
-        before = world.scene
         result, rep = world.execute(plan, match[i], snapshots=shots)
         sec["ExecuteGrasp"] = time.perf_counter() - t0
         o = outcome[obj]
@@ -217,10 +217,8 @@ def clear_table(
             )
         rounds.append(Round(index, k, sec, tuple(tried), i, obj, result, plan.summary()))
         if pictures:
-            extras["rounds"].append({"scene": before, "segmentation": ts, "meshes": meshes,
-                                     "target": i, "match": match, "plan": plan, "replay": rep,
-                                     "truth": world.last_truth,
-                                     "shot_times": shots})  # fmt: skip
+            extras["rounds"].append({"meshes": meshes, "plan": plan, "replay": rep,
+                                     "truth": world.last_truth})  # fmt: skip
     else:
         stop = "attempts exhausted"
     if world is not None and not world.alive and stop != "table clear":
