@@ -40,6 +40,9 @@ def preset_argument(argv: Sequence[str], default: str = "default") -> str:
 def parse(cls: type[T], argv: Sequence[str], prog: str, description: str | None = None) -> T:
     """Parses ``argv`` into ``cls``, a :class:`PresetArgs` dataclass.
 
+    Without ``--config`` the preset is the default of ``cls``'s own ``config`` field (a job
+    with its own preset, such as the grasp cycle's, names it there).
+
     Fields of ``cls`` named like a preset table (``symmetry``, ``execution``, ...) or
     ``evaluation`` default to the preset's values, so ``--help`` shows what the preset sets.
     """
@@ -47,7 +50,8 @@ def parse(cls: type[T], argv: Sequence[str], prog: str, description: str | None 
 
     from symjax import configs
 
-    preset = configs.load(preset_argument(argv))
+    own = next(f.default for f in dataclasses.fields(cls) if f.name == "config")
+    preset = configs.load(preset_argument(argv, own))
     take = {"evaluation", *configs.SECTIONS}
     values = {f.name: getattr(preset, f.name) for f in dataclasses.fields(cls) if f.name in take}
     default = cls(config=preset.name, **values)

@@ -24,6 +24,7 @@ class ClearTableCommand(PresetArgs):
     """Runs the grasp cycle on seeded table scenes.
 
     Attributes:
+        config: Preset name or TOML path (default ``cycle``, the cycle's own).
         robots: Robots to run (kth, uji).
         scenes: Seeded scenes per robot.
         modes: Ways to run each scene: C completion, P observed points, T true meshes.
@@ -35,6 +36,7 @@ class ClearTableCommand(PresetArgs):
         backend: Grasp rollout backend (mujoco, mjx; default by device).
     """
 
+    config: str = "cycle"
     robots: tuple[Literal["kth", "uji"], ...] = ("kth", "uji")
     scenes: int = 20
     modes: tuple[Literal["C", "P", "T"], ...] = ("C", "P", "T")
@@ -52,8 +54,6 @@ def _body(argv: list[str]) -> int:
     from symjax.cycle.batch import run_scenes, scene_specs
     from symjax.cycle.summary import write_report
 
-    if not any(a == "--config" or a.startswith("--config=") for a in argv):
-        argv = ["--config", "cycle", *argv]  # the cycle's own preset unless one is named
     args = parse(ClearTableCommand, argv, "symjax clear-table", __doc__)
     base = CycleConfig.from_preset(configs.load(args.config), backend=args.backend)
     specs = scene_specs(args.robots, args.scenes, args.seed, (args.min_objects, args.max_objects))

@@ -24,6 +24,7 @@ class StudyCommand(PresetArgs):
     """Runs the study.
 
     Attributes:
+        config: Preset name or TOML path (default ``study``, the study's own).
         out_dir: Output folder.
         top: Grasps of each planning mesh rolled out on the truth.
         subset: Benchmark subset items (data set ids, view names); empty = all 128 views.
@@ -31,6 +32,7 @@ class StudyCommand(PresetArgs):
         backend: Rollout backend (mujoco, mjx; default by device).
     """
 
+    config: str = "study"
     out_dir: str = "out/study"
     top: int = 5
     subset: tuple[str, ...] = ()
@@ -43,8 +45,6 @@ def _body(argv: list[str]) -> int:
     from symjax import configs
     from symjax.study import StudyConfig, run_study, write_report
 
-    if not any(a == "--config" or a.startswith("--config=") for a in argv):
-        argv = ["--config", "study", *argv]
     args = parse(StudyCommand, argv, "symjax study", __doc__)
     cfg = StudyConfig.from_preset(configs.load(args.config), out_dir=args.out_dir, top=args.top,
                                   subset=args.subset, extra_scans=args.extra_scans,
