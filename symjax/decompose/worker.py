@@ -7,6 +7,7 @@ replaced on the next call.
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures as cf
 import multiprocessing
 from collections.abc import Callable
@@ -24,7 +25,18 @@ def _pool() -> cf.ProcessPoolExecutor:
     if _POOL is None:
         # spawn, not fork: the caller has JAX's and MuJoCo's threads running.
         _POOL = cf.ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+        # Shut it down before the interpreter tears its modules down: left to the pool's own
+        # weakref callback it printed "Exception ignored ... 'NoneType' object has no
+        # attribute 'util'" at exit.
+        atexit.register(_shutdown)
     return _POOL
+
+
+def _shutdown() -> None:
+    global _POOL
+    if _POOL is not None:
+        _POOL.shutdown(wait=True, cancel_futures=True)
+        _POOL = None
 
 
 def run_isolated(fn: Callable[..., Any], *args: Any, what: str = "coacd") -> Any:
