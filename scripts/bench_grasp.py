@@ -14,10 +14,16 @@ measured 600-750 env-steps/s (2 cores) a 4,096 batch would take about 1.5 hours.
 ``paper_budget`` row times 100 candidates end to end with the default backend (scene build and
 compilation included): the paper's budget is a minute.
 
+``--gpu`` is the one GPU command (issue 16): batches of 1,024, 4,096 and 16,384 with MJX-JAX
+and MJX-Warp (``backend="mjx_warp"``, where ``mujoco-mjx[warp]`` is installed), the labels of
+each batch's first 512 candidates against C MuJoCo, in under 5 minutes (no case starts after
+270 s); rows go to ``bench/results/grasp_gpu.json``. Without a GPU it says so and stops, unless
+the sizes are tiny (``--gpu --gpu-sizes 16``: a dry run of the same code on the CPU).
+
 One JSON line per case on stdout; all rows go to ``bench/results/grasp.json`` (atomically).
 
 Usage: ``python scripts/bench_grasp.py [--sizes 64 512 4096] [--mjx-sizes 64] [--hands sdh
-barrett] [--out bench/results/grasp.json]``
+barrett] [--out bench/results/grasp.json]`` or ``python scripts/bench_grasp.py --gpu``
 """
 
 from __future__ import annotations
@@ -105,10 +111,17 @@ class Args(PresetArgs):
     """Where the JSON lines go."""
     simulation: SimulationConfig = dataclasses.field(default_factory=SimulationConfig)
     """The rollouts."""
+    gpu: bool = False
+    """GPU mode: batches of 1,024, 4,096 and 16,384 with MJX-JAX and MJX-Warp (where installed),
+    each against C MuJoCo on its first 512 candidates; stops starting cases after 270 s."""
+    gpu_sizes: tuple[int, ...] = (1024, 4096, 16384)
+    """Batch sizes of GPU mode."""
 
 
 def main(argv=None) -> int:
     args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_grasp.py", __doc__)
+    if args.gpu:
+        return bench_gpu(args)
     gpu = jax.default_backend() == "gpu"
     mjx_sizes = args.mjx_sizes if args.mjx_sizes is not None else (args.sizes if gpu else [64])
     meta = {
@@ -182,6 +195,59 @@ def main(argv=None) -> int:
                 "closure_agreement_with_mujoco":
                     float((out.force_closure == ref.force_closure).mean()),
             })  # fmt: skip
+
+
+def bench_gpu(args: Args) -> int:
+    """Candidates per second of both MJX implementations at large batches (one JSON line each)."""
+    from symjax.grasp.backends import warp_backend
+
+    t_start = time.perf_counter()
+    impls = ["mjx"] + (["mjx_warp"] if warp_backend.available() else [])
+    meta = {"machine": platform.machine(), "cpus": os.cpu_count(),
+            "jax_backend": jax.default_backend(), "devices": [str(d) for d in jax.devices()],
+            "load_avg": [round(x, 2) for x in os.getloadavg()]}  # fmt: skip
+    if jax.default_backend() != "gpu" and max(args.gpu_sizes) > 64:
+        print(json.dumps({"case": "gpu", "skipped": "no GPU: JAX runs on the CPU (a dry run"
+                          " takes --gpu-sizes 16)", **meta}))  # fmt: skip
+        return 0
+    if "mjx_warp" not in impls:
+        skip = "MuJoCo Warp not installed (pip install 'symjax[warp]')"
+        print(json.dumps({"case": "gpu", "backend": "mjx_warp", "skipped": skip}))
+    v, f = mug()
+    hulls = decompose((v, f), DecomposeConfig(max_hulls=8, max_vertices=32))
+    rows: list[dict] = []
+    for hand_name in args.hands:
+        hand = hands.load(hand_name)
+        scene = grasp.build_scene(hulls, hand, args.simulation)
+        for n in args.gpu_sizes:
+            cands = pool(v, f, hand, n)
+            sub = _take(cands, 512)
+            ref = grasp.simulate(None, sub, hand, backend="mujoco", scene=scene).numpy()
+            for impl in impls:
+                if time.perf_counter() - t_start > 270:
+                    print(json.dumps({"case": "gpu", "hand": hand_name, "backend": impl, "n": n,
+                                      "skipped": "past the 270 s budget"}))  # fmt: skip
+                    continue
+                ex = ExecutionConfig(simulation_chunk=n)
+                t0 = time.perf_counter()
+                grasp.simulate(None, _take(cands, n), hand, backend=impl, scene=scene, execution=ex)
+                first = time.perf_counter() - t0
+                t0 = time.perf_counter()
+                out = grasp.simulate(None, cands, hand, backend=impl, scene=scene,
+                                     execution=ex).numpy()  # fmt: skip
+                run = time.perf_counter() - t0
+                agree = float((out.success[:512] == ref.success).mean())
+                row = {"case": "gpu_rollout", "hand": hand_name, "backend": impl, "n": n,
+                       "compile_s": round(max(first - run, 0.0), 2), "run_s": round(run, 3),
+                       "candidates_per_s": round(n / run, 1), "target_per_s": 5000,
+                       "success_rate": float(out.success.mean()),
+                       "diverged": int(out.diverged.sum()),
+                       "success_agreement_with_mujoco_512": agree, **meta}  # fmt: skip
+                print(json.dumps(row), flush=True)
+                rows.append(row)
+                atomic_write_json(ROOT / "bench" / "results" / "grasp_gpu.json", rows)
+    print(json.dumps({"case": "gpu_total", "seconds": round(time.perf_counter() - t_start, 1)}))
+    return 0
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@ __all__ = [
     "DegenerateGeometryError",
     "ConfigError",
     "SimulationError",
+    "OutputError",
 ]
 
 
@@ -67,6 +68,10 @@ class ConfigError(InvalidInputError):
 
 class SimulationError(SymjaxError, RuntimeError):
     """A simulation could not be set up or run."""
+
+
+class OutputError(SymjaxError, OSError):
+    """An output folder cannot be written, or the disk has no room for what a job writes."""
 
 
 def unknown_name(kind: str, name: object, valid: list[str] | tuple[str, ...]) -> UnknownNameError:

@@ -35,6 +35,13 @@ from symjax import (
     study,
     surface,
 )
+from symjax.data import (
+    DatasetSpec,
+    DenseSamplerConfig,
+    GenerateConfig,
+    generate_dataset,
+    load_grasps,
+)
 from symjax.datasets import benchmark, load_object
 from symjax.datasets.primitives import primitive_view
 from symjax.errors import (
@@ -45,6 +52,7 @@ from symjax.errors import (
     FileFormatError,
     InvalidInputError,
     MissingFileError,
+    OutputError,
     ShapeError,
     SymjaxError,
     UnknownNameError,
@@ -182,6 +190,31 @@ def _scan_scene(robot="uji"):
 
 def _empty_report():
     return cycle.CycleReport("kth", "C", (), (), "table clear", 0.0)
+
+
+def _generate(d: Path, out: Path | None = None, **spec):
+    """generate_dataset on ``spec`` (objects, hands, counts) into ``out`` (default d / "o")."""
+    cfg = GenerateConfig(generate=DatasetSpec(**{"objects": ("025_mug",), **spec}),
+                         out_dir=str(out if out is not None else d / "o"))  # fmt: skip
+    return generate_dataset(cfg, log=lambda s: None)
+
+
+def _mesh_folder(d: Path, **files: bytes) -> str:
+    for name, data in files.items():
+        _write(d / "meshes", name, data)
+    return str(d / "meshes")
+
+
+def _box_obj(size: float) -> bytes:
+    return trimesh.creation.box((size, size, size)).export(file_type="obj").encode()
+
+
+def _incomplete_h5(d: Path) -> Path:
+    import h5py
+
+    with h5py.File(d / "half.h5", "w") as f:
+        f["grasps/transforms"] = np.zeros((1, 4, 4))
+    return d / "half.h5"
 
 
 def _hulls():
@@ -415,6 +448,26 @@ CASES = [
     ("cli-clear-table-objects", lambda d: _cli("clear-table", "--min-objects", "7", "--out-dir", str(d / "o")), _CliError, ["exit 2", "min objects", "(7, 5)"]),
     ("cli-clear-table-robot", lambda d: _cli("clear-table", "--robots", "pr2", "--out-dir", str(d / "o")), _CliError, ["exit 2", "pr2"]),
     ("cli-study-top", lambda d: _cli("study", "--top", "0", "--out-dir", str(d / "o")), _CliError, ["exit 2", "top", ">= 1"]),
+    # --- grasp training data (symjax generate) ---------------------------------------------------
+    ("data-unknown-object", lambda d: _generate(d, objects=("no_such_scan",)), UnknownNameError, ["'no_such_scan'", "025_mug"]),
+    ("data-mesh-folder-missing", lambda d: _generate(d, objects=(), mesh_folder=str(d / "nope")), MissingFileError, ["mesh_folder", "nope", "not a folder"]),
+    ("data-mesh-folder-empty", lambda d: _generate(d, objects=(), mesh_folder=str(_write(d, "m/readme.txt", "x").parent)), MissingFileError, ["holds no", ".obj"]),
+    ("data-mesh-unreadable", lambda d: _generate(d, objects=(), mesh_folder=_mesh_folder(d, **{"bad.ply": b"ply\nformat nonsense\n"})), FileFormatError, ["bad.ply"]),
+    ("data-mesh-scale", lambda d: _generate(d, objects=(), mesh_folder=_mesh_folder(d, **{"cube.obj": _box_obj(50.0)})), InvalidInputError, ["cube.obj", "50 m across", "generate.scales"]),
+    ("data-scales-unknown-file", lambda d: _generate(d, objects=(), mesh_folder=_mesh_folder(d, **{"cube.obj": _box_obj(0.05)}), scales=(("cone.obj", 0.001),)), InvalidInputError, ["generate.scales", "cone.obj"]),
+    ("data-hand-unknown", lambda d: DatasetSpec(hands=("shadow",)), ConfigError, ["'shadow'", "sdh", "parallel_jaw"]),
+    ("data-shares-sum", lambda d: DatasetSpec(shares=(("kth", 0.8), ("uji", 0.5))), ConfigError, ["add up to 1.300", "at most 1"]),
+    ("data-shares-generator", lambda d: DatasetSpec(shares=(("dense", 0.5),)), ConfigError, ["'dense'", "openrave"]),
+    ("data-candidates-zero", lambda d: DatasetSpec(n_candidates=0), ConfigError, ["n_candidates", ">= 1", "got 0"]),
+    ("data-no-objects", lambda d: DatasetSpec(objects=()), ConfigError, ["no objects", "mesh_folder"]),
+    ("data-dense-cone", lambda d: DenseSamplerConfig(cone_deg=95.0), ConfigError, ["cone_deg", "[0, 90)", "95"]),
+    ("data-out-under-file", lambda d: _generate(d, out=_write(d, "f", "x") / "sub"), OutputError, ["cannot be written", "writable folder"]),
+    ("data-out-is-file", lambda d: _generate(d, out=_write(d, "f", "x")), OutputError, ["is a file", "folder"]),
+    ("data-load-missing", lambda d: load_grasps(d / "x.h5"), MissingFileError, ["x.h5", "does not exist"]),
+    ("data-load-not-hdf5", lambda d: load_grasps(_write(d, "x.h5", "junk")), FileFormatError, ["x.h5", "not a readable HDF5"]),
+    ("data-load-incomplete", lambda d: load_grasps(_incomplete_h5(d)), FileFormatError, ["half.h5", "incomplete"]),
+    ("cli-generate-object", lambda d: _cli("generate", "--generate.objects", "no_such_scan", "--out-dir", str(d / "o")), _CliError, ["exit 2", "no_such_scan"]),
+    ("cli-generate-candidates", lambda d: _cli("generate", "--generate.n-candidates", "0", "--out-dir", str(d / "o")), _CliError, ["exit 2", "n_candidates", ">= 1"]),
     # --- command line ------------------------------------------------------------------------
     ("cli-unknown-command", lambda d: _cli("evaluate"), _CliError, ["unknown command 'evaluate'", "eval"]),
     ("cli-preset", lambda d: _cli("eval", "--config", "papr"), _CliError, ["exit 2", "unknown preset 'papr'", "paper"]),

@@ -38,6 +38,12 @@ def _study(argv: list[str]) -> int:
     return main(argv)
 
 
+def _generate(argv: list[str]) -> int:
+    from symjax.cli.generate_command import main
+
+    return main(argv)
+
+
 def _presets(argv: list[str]) -> int:
     from symjax import configs
 
@@ -55,6 +61,10 @@ COMMANDS: dict[str, tuple[Callable[[list[str]], int], str]] = {
     "demo": (_demo, "symmetry completion of 24 synthetic views, in under a minute"),
     "clear-table": (_clear_table, "the grasp cycle (Algorithm 1) on seeded table scenes, C/P/T"),
     "study": (_study, "plan on the completion, score on the truth (T/C/P grasps on the truth)"),
+    "generate": (
+        _generate,
+        "grasp training data: ACRONYM-keyed HDF5 with partial views, resumable",
+    ),
     "presets": (_presets, "list the named presets of configs/"),
 }
 

@@ -33,7 +33,7 @@ class ClearTableCommand(PresetArgs):
         seed: Seed of the first scene (scene s has seed + s).
         out_dir: Output folder.
         pictures: Scenes per robot whose C run gets a picture.
-        backend: Grasp rollout backend (mujoco, mjx; default by device).
+        backend: Grasp rollout backend (mujoco, mjx, mjx_warp; default by device).
     """
 
     config: str = "cycle"
@@ -45,7 +45,7 @@ class ClearTableCommand(PresetArgs):
     seed: int = 0
     out_dir: str = "out/clear_table"
     pictures: int = 2
-    backend: Literal["mujoco", "mjx"] | None = None
+    backend: Literal["mujoco", "mjx", "mjx_warp"] | None = None
 
 
 def _body(argv: list[str]) -> int:

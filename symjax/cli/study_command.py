@@ -29,7 +29,7 @@ class StudyCommand(PresetArgs):
         top: Grasps of each planning mesh rolled out on the truth.
         subset: Benchmark subset items (data set ids, view names); empty = all 128 views.
         extra_scans: Other scans to add views of (none: the benchmark alone).
-        backend: Rollout backend (mujoco, mjx; default by device).
+        backend: Rollout backend (mujoco, mjx, mjx_warp; default by device).
     """
 
     config: str = "study"
@@ -38,7 +38,7 @@ class StudyCommand(PresetArgs):
     subset: tuple[str, ...] = ()
     extra_scans: Annotated[tuple[str, ...], tyro.conf.arg(name="extra-scans")] = (
         "002_master_chef_can", "010_potted_meat_can", "013_apple", "024_bowl")  # fmt: skip
-    backend: Literal["mujoco", "mjx"] | None = None
+    backend: Literal["mujoco", "mjx", "mjx_warp"] | None = None
 
 
 def _body(argv: list[str]) -> int:

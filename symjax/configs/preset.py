@@ -3,11 +3,11 @@ the checkout, packaged as ``symjax/presets``).
 
 A preset file has one table per concept (``[symmetry]``, ``[normals]``, ``[poisson]``,
 ``[delaunay]``, ``[segmentation]``, ``[decompose]``, ``[candidates]``, ``[simulation]``,
-``[motion]``, ``[platform]``, ``[camera]``, ``[execution]``, ``[evaluation]``), each holding only
-the fields it
-changes from the defaults next to the code. ``extends = "name"`` starts from another preset. Job
-configs that need several concepts (:class:`~symjax.evaluation.EvalConfig`) are composed from the
-tables, so each value lives in one place.
+``[motion]``, ``[platform]``, ``[camera]``, ``[execution]``, ``[generate]``, ``[evaluation]``),
+each holding only the fields it changes from the defaults next to the code. ``extends = "name"``
+starts from another preset. Job configs that need several concepts
+(:class:`~symjax.evaluation.EvalConfig`) are composed from the tables, so each value lives in one
+place.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from symjax.data.spec import DatasetSpec
 from symjax.datasets.stereo import StereoHead
 from symjax.decompose.config import DecomposeConfig
 from symjax.errors import ConfigError, FileFormatError, MissingFileError, unknown_name
@@ -49,6 +50,7 @@ SECTIONS: dict[str, type] = {
     "simulation": SimulationConfig,
     "motion": MotionConfig,
     "execution": ExecutionConfig,
+    "generate": DatasetSpec,
 }
 
 # EvalConfig fields that come from the other tables, not from [evaluation].
@@ -74,6 +76,7 @@ class Preset:
         simulation: Grasp rollouts.
         motion: Arm motion planning (IK, approach, transit, timing).
         execution: Batch and chunk sizes (speed only).
+        generate: A grasp data set's objects, hands and counts (``symjax generate``).
         evaluation: The 128-view evaluation, composed from the tables above.
     """
 
@@ -91,6 +94,7 @@ class Preset:
     simulation: SimulationConfig
     motion: MotionConfig
     execution: ExecutionConfig
+    generate: DatasetSpec
     evaluation: EvalConfig
 
 

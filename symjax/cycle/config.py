@@ -46,7 +46,7 @@ class CycleConfig(ShapeToGraspStages):
             off the table, metres.
         min_match: Share of a hypothesis's pixels that must belong to one true object for the
             execution to know which object it picks (simulated scenes).
-        backend: Grasp rollout backend (``"mujoco"``, ``"mjx"``, or None: by device).
+        backend: Grasp rollout backend (``"mujoco"``, ``"mjx"``, ``"mjx_warp"`` or None: by device).
         seed: Seed of the stereo noise of the frames taken after each pick.
         cache_dir: Cache of the preprocessed scans of a simulated scene (see
             :func:`symjax.datasets.load_object`; None = the default).
@@ -59,7 +59,7 @@ class CycleConfig(ShapeToGraspStages):
     attempts_per_object: int = 2
     dropoff_radius: float = 0.2
     min_match: float = 0.5
-    backend: Literal["mujoco", "mjx"] | None = None
+    backend: Literal["mujoco", "mjx", "mjx_warp"] | None = None
     seed: int = 0
     cache_dir: str | None = None
     segmentation: SegmentationConfig = dataclasses.field(default_factory=SegmentationConfig)

@@ -24,7 +24,7 @@ __all__ = [
 ]
 
 
-def completed_meshes(observations: list, tables: list, cfg: Any) -> list:
+def completed_meshes(observations: list, tables: list, cfg: Any, search: Any = None) -> list:
     """The paper's Mir7 per observation: one batched symmetry search, the completed clouds'
     oriented normals, one batched Poisson solve, each mesh cut at its table.
 
@@ -33,6 +33,8 @@ def completed_meshes(observations: list, tables: list, cfg: Any) -> list:
         tables: The table plane each stands on.
         cfg: A config with ``symmetry``, ``normals``, ``poisson`` and ``execution``
             (:class:`~symjax.configs.stages.ShapeToGraspStages`).
+        search: The batched :class:`~symjax.symmetry.SymmetryResult` of ``observations`` when
+            the caller ran the search (and keeps its planes); None runs it here.
 
     Returns:
         Per observation a ``trimesh.Trimesh`` (world frame) or the :class:`SymjaxError`.
@@ -43,7 +45,8 @@ def completed_meshes(observations: list, tables: list, cfg: Any) -> list:
     k = len(observations)
     out: list = [None] * k
     try:
-        res = search_batch(list(observations), cfg.symmetry, cfg.execution)
+        res = search if search is not None else search_batch(list(observations), cfg.symmetry,
+                                                             cfg.execution)  # fmt: skip
     except SymjaxError as e:
         return [e] * k
     ops, good = [], []

@@ -10,7 +10,7 @@ generators), ``scene`` (the MjSpec grasp scene), ``schedule`` (open-loop inputs)
 from symjax.grasp.approach import approach_frame, roll_for_axis
 from symjax.grasp.backends import BACKENDS, default_backend
 from symjax.grasp.candidate_set import Candidates, CandidateSet
-from symjax.grasp.candidates import METHODS, generate, kth_grasp_points
+from symjax.grasp.candidates import METHODS, generate, kth_grasp_points, start_pose_check
 from symjax.grasp.config import PINCH, CandidateConfig
 from symjax.grasp.mesh_rays import cast_rays, inside_mesh, ray_mesh
 from symjax.grasp.outcomes import GraspOutcomes
@@ -47,4 +47,5 @@ __all__ = [
     "ray_mesh",
     "roll_for_axis",
     "simulate",
+    "start_pose_check",
 ]

@@ -44,7 +44,7 @@ from symjax.grasp.candidate_set import Candidates, CandidateSet
 from symjax.grasp.config import CandidateConfig
 from symjax.grasp.mesh_rays import cast_rays, inside_mesh
 
-__all__ = ["METHODS", "generate", "kth_grasp_points"]
+__all__ = ["METHODS", "generate", "kth_grasp_points", "start_pose_check"]
 
 METHODS = ("openrave", "kth", "uji")
 
@@ -193,6 +193,70 @@ def _probe_world(approach, point, roll, distance, probes):
     return jax.vmap(one)(approach, point, roll, distance)
 
 
+def start_pose_check(
+    cands: Candidates, mesh: MeshLike, config: CandidateConfig, table: Any = None, hand: Any = None
+) -> tuple[np.ndarray, int, int]:
+    """Which candidates start clear of the table and the object (the generators' last step).
+
+    Args:
+        cands: The candidates, world frame.
+        mesh: The object, ``(vertices (V, 3), faces (F, 3))`` or a ``trimesh.Trimesh``, metres.
+        config: :class:`CandidateConfig` (``table_clearance``, the stand-in palm).
+        table: A :class:`symjax.table.TablePlane`; None skips the table check.
+        hand: A :class:`symjax.hands.Hand` whose pre-shape geometry is the probe (else a
+            stand-in palm).
+
+    Returns:
+        ``(keep (N,) bool, n_dropped_table, n_dropped_object)``.
+    """
+    v, f = mesh_arrays(mesh)
+    n = len(cands)
+    keep = np.ones(n, dtype=bool)
+    drop_table = drop_object = 0
+    if n:
+        used = sorted({int(x) for x in np.unique(np.asarray(cands.preshape))})
+        if hand is not None:
+            from symjax.hands import as_hand, probe_points
+
+            hand = as_hand(hand)
+
+            if used[-1] >= len(hand.preshape_names) or used[0] < 0:
+                raise InvalidInputError(
+                    f"pre-shape index {used[-1]} is out of range for the hand"
+                    f" {hand.name}: expected 0 to {len(hand.preshape_names) - 1}"
+                    f" ({', '.join(hand.preshape_names)})"
+                )
+            probes = {p: probe_points(hand, p) for p in used}
+        else:
+            o = config.palm_offset
+            palm = np.array(
+                [[0, 0, -o], [0.05, 0, -o], [-0.05, 0, -o], [0, 0.05, -o], [0, -0.05, -o]]
+            )
+            probes = {p: palm for p in used}
+        table_bad = np.zeros(n, dtype=bool)
+        object_bad = np.zeros(n, dtype=bool)
+        for p, local in probes.items():
+            sel = np.flatnonzero(cands.preshape == p)
+            nb = bucket(len(sel), minimum=256)
+            world = np.asarray(_probe_world(
+                pad_rows(cands.approach[sel].astype(np.float32), nb),
+                pad_rows(cands.point[sel].astype(np.float32), nb),
+                pad_rows(cands.roll[sel].astype(np.float32), nb),
+                pad_rows(cands.distance[sel].astype(np.float32), nb),
+                np.asarray(local, np.float32),
+            ))[: len(sel)]  # fmt: skip
+            if table is not None:
+                h = world @ np.asarray(table.normal) + float(table.offset)
+                table_bad[sel] = np.any(h < config.table_clearance, axis=1)
+            inside = inside_mesh(world.reshape(-1, 3), (v, f)).reshape(world.shape[:2])
+            object_bad[sel] = np.any(inside, axis=1)
+        drop_table = int(table_bad.sum())
+        object_bad &= ~table_bad
+        drop_object = int(object_bad.sum())
+        keep = ~(table_bad | object_bad)
+    return keep, drop_table, drop_object
+
+
 def generate(
     mesh: MeshLike,
     method: str,
@@ -239,48 +303,7 @@ def generate(
     cands = _expand(approach, point, roll, config)
     n = len(cands)
 
-    keep = np.ones(n, dtype=bool)
-    drop_table = drop_object = 0
-    if n:
-        if hand is not None:
-            from symjax.hands import as_hand, probe_points
-
-            hand = as_hand(hand)
-
-            if max(config.preshapes) >= len(hand.preshape_names):
-                raise InvalidInputError(
-                    f"pre-shape index {max(config.preshapes)} is out of range for the hand"
-                    f" {hand.name}: expected 0 to {len(hand.preshape_names) - 1}"
-                    f" ({', '.join(hand.preshape_names)})"
-                )
-            probes = {p: probe_points(hand, p) for p in set(config.preshapes)}
-        else:
-            o = config.palm_offset
-            palm = np.array(
-                [[0, 0, -o], [0.05, 0, -o], [-0.05, 0, -o], [0, 0.05, -o], [0, -0.05, -o]]
-            )
-            probes = {p: palm for p in set(config.preshapes)}
-        table_bad = np.zeros(n, dtype=bool)
-        object_bad = np.zeros(n, dtype=bool)
-        for p, local in probes.items():
-            sel = np.flatnonzero(cands.preshape == p)
-            nb = bucket(len(sel), minimum=256)
-            world = np.asarray(_probe_world(
-                pad_rows(cands.approach[sel].astype(np.float32), nb),
-                pad_rows(cands.point[sel].astype(np.float32), nb),
-                pad_rows(cands.roll[sel].astype(np.float32), nb),
-                pad_rows(cands.distance[sel].astype(np.float32), nb),
-                np.asarray(local, np.float32),
-            ))[: len(sel)]  # fmt: skip
-            if table is not None:
-                h = world @ np.asarray(table.normal) + float(table.offset)
-                table_bad[sel] = np.any(h < config.table_clearance, axis=1)
-            inside = inside_mesh(world.reshape(-1, 3), (v, f)).reshape(world.shape[:2])
-            object_bad[sel] = np.any(inside, axis=1)
-        drop_table = int(table_bad.sum())
-        object_bad &= ~table_bad
-        drop_object = int(object_bad.sum())
-        keep = ~(table_bad | object_bad)
+    keep, drop_table, drop_object = start_pose_check(cands, (v, f), config, table, hand)
     kept = jax.tree_util.tree_map(lambda x: x[keep], cands)
     kept = Candidates(
         approach=kept.approach.astype(np.float32),

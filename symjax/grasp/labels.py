@@ -98,4 +98,5 @@ def labels(scene: GraspScene, p, q_app, q_grasp, q_end, diverged, grasp_con, sta
         "shake_rotation": clean(shake_rot, jnp.inf),
         "lift": clean(lift),
         "diverged": bad,
+        "hand_q": jnp.where(bad, 0.0, jnp.nan_to_num(q_grasp[jnp.asarray(scene.qadr_hand)])),
     }

@@ -33,7 +33,9 @@ class GraspOutcomes:
         shake_rotation: Object rotation relative to the palm over the same span, (N,), radians.
         lift: Rise of the object from grasp to the end of the shake, (N,), metres.
         diverged: The rollout produced NaN/inf (or C MuJoCo reset it); labelled failed, (N,).
-        backend: ``"mjx"`` or ``"mujoco"``.
+        hand_q: The hand's joint positions at grasp time (closed on the object, after the
+            settle), (N, J), radians or metres in ``hand.joint_names`` order; 0 when diverged.
+        backend: ``"mjx"``, ``"mjx_warp"`` or ``"mujoco"``.
     """
 
     success: Any
@@ -51,6 +53,7 @@ class GraspOutcomes:
     shake_rotation: Any
     lift: Any
     diverged: Any
+    hand_q: Any
     backend: str = static_field(default="mjx")
 
     def __len__(self) -> int:

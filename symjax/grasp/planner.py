@@ -119,7 +119,7 @@ def plan(
         candidates: :class:`CandidateConfig` for the generator.
         simulation: :class:`SimulationConfig`.
         execution: Chunk size and threads; no effect on the labels.
-        backend: ``"mjx"``, ``"mujoco"`` or None (by device).
+        backend: ``"mjx"``, ``"mjx_warp"``, ``"mujoco"`` or None (by device).
         grasp_points: ``"kth"`` grasp points, shape (2, 3).
         seed: Seed of the ``"openrave"`` sampling.
 

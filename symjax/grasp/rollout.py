@@ -45,7 +45,7 @@ def simulate(
         candidates: The :class:`Candidates` batch, world frame.
         hand: The :class:`symjax.hands.Hand`.
         config: :class:`SimulationConfig` (default settings when None).
-        backend: ``"mjx"``, ``"mujoco"`` or None (:func:`default_backend`).
+        backend: ``"mjx"``, ``"mjx_warp"``, ``"mujoco"`` or None (:func:`default_backend`).
         table: Table height or plane (see :func:`build_scene`).
         scene: A scene from :func:`build_scene` to reuse (its compiled MJX function is cached).
         execution: Chunk size and threads (:class:`symjax.execution.ExecutionConfig`); no

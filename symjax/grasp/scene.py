@@ -262,14 +262,16 @@ def scene_spec(
     spec.attach(hs, prefix="hand/", frame=frame)
     base = spec.body("hand/" + hand.base_body)
     for ax, vec in zip("xyz", np.eye(3), strict=True):
+        # Unlimited explicitly: a base body with a childclass (the parallel jaw's) would
+        # otherwise hand its finger joints' range to these joints.
         base.add_joint(
             name=f"base_{ax}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=vec, armature=0.01,
-            damping=1.0,
+            damping=1.0, limited=mujoco.mjtLimited.mjLIMITED_FALSE,
         )  # fmt: skip
     for ax, vec in (("rz", (0, 0, 1)), ("ry", (0, 1, 0)), ("rx", (1, 0, 0))):
         base.add_joint(
             name=f"base_{ax}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=vec, armature=0.02,
-            damping=0.5,
+            damping=0.5, limited=mujoco.mjtLimited.mjLIMITED_FALSE,
         )  # fmt: skip
     for b in spec.bodies:
         if b.name.startswith("hand/"):

@@ -30,7 +30,7 @@ class StudyConfig(ShapeToGraspStages):
         extra_scans: Other scans (not in the benchmark) to add views of.
         extra_orientations: Orientations of each extra scan, degrees.
         batch: Views completed per batched symmetry search and Poisson solve.
-        backend: Rollout backend (``"mujoco"``, ``"mjx"`` or None: by device).
+        backend: Rollout backend (``"mujoco"``, ``"mjx"``, ``"mjx_warp"`` or None: by device).
         seed: Seed of the benchmark's rendering.
         cache_dir: The benchmark's cache (None = the default).
 
@@ -50,7 +50,7 @@ class StudyConfig(ShapeToGraspStages):
     )
     extra_orientations: tuple[float, ...] = (0.0, 90.0, 180.0, 270.0)
     batch: int = 16
-    backend: Literal["mujoco", "mjx"] | None = None
+    backend: Literal["mujoco", "mjx", "mjx_warp"] | None = None
     seed: int = 0
     cache_dir: str | None = None
 

@@ -1,8 +1,8 @@
 """MJX rollout backend: MuJoCo XLA with ``impl="jax"`` (the pure-JAX implementation, on the CPU
 or any GPU). One jitted function: ``vmap`` over candidates, ``lax.scan`` over steps; batches are
-chunked and padded to a size bucket. The contacts MJX allots are capped (``mjx_max_contacts``,
-``mjx_max_pairs``): on the SDH and a mug of 8 hulls this made the rollouts 3.1x faster on the CPU
-with the same success labels.
+chunked and padded to a size bucket, and sharded over the local devices when there are several.
+The contacts MJX allots are capped (``mjx_max_contacts``, ``mjx_max_pairs``): on the SDH and a
+mug of 8 hulls this made the rollouts 3.1x faster on the CPU with the same success labels.
 """
 
 from __future__ import annotations
@@ -20,12 +20,51 @@ from symjax.grasp.outcomes import GraspOutcomes
 from symjax.grasp.scene import GraspScene
 from symjax.grasp.schedule import control, snap_steps
 
-__all__ = ["run"]
+__all__ = ["rollout_states", "run", "shard_batch"]
 
 
 def _contacts_mjx(d):
     c = d._impl.contact
     return c.dist, c.pos, c.frame[:, 0, :], c.geom1, c.geom2
+
+
+def rollout_states(scene: GraspScene, mx, d0, p):
+    """One candidate's rollout (pure JAX, any MJX ``impl``): the kept states and divergence.
+
+    Returns:
+        ``(d_end, q_app, q_grasp, bad)``: the final data, the qpos at the end of the approach
+        and of the settle, and whether any state was not finite.
+    """
+    from mujoco import mjx
+
+    i_app, i_grasp, _ = snap_steps(scene.config)
+
+    def body(carry, k):
+        d, q_app, q_grasp, bad = carry
+        ctrl, qfrc, eq = control(scene, k, p)
+        d = mjx.step(mx, d.replace(ctrl=ctrl, qfrc_applied=qfrc, eq_active=eq))
+        ok = jnp.all(jnp.isfinite(d.qpos)) & jnp.all(jnp.isfinite(d.qvel))
+        bad = bad | ~ok
+        q_app = jnp.where(k == i_app, d.qpos, q_app)
+        q_grasp = jnp.where(k == i_grasp, d.qpos, q_grasp)
+        return (d, q_app, q_grasp, bad), None
+
+    d = d0.replace(qpos=p["qpos"])
+    init = (d, p["qpos"], p["qpos"], jnp.array(False))
+    (d, q_app, q_grasp, bad), _ = jax.lax.scan(body, init, jnp.arange(scene.config.n_steps))
+    return d, q_app, q_grasp, bad
+
+
+def shard_batch(tree, n: int):
+    """``tree``'s arrays (leading axis ``n``) split over the local devices along that axis when
+    there are several and ``n`` divides evenly, else as they are."""
+    devices = jax.local_devices()
+    if len(devices) < 2 or n % len(devices):
+        return tree
+    from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+    sharding = NamedSharding(Mesh(np.array(devices), ("batch",)), PartitionSpec("batch"))
+    return jax.device_put(tree, sharding)
 
 
 @functools.lru_cache(maxsize=8)
@@ -34,31 +73,23 @@ def _mjx_runner(scene: GraspScene):
 
     mx = scene._mjx
     d0 = mjx.make_data(scene.model, impl="jax")
-    i_app, i_grasp, i_end = snap_steps(scene.config)
-    n = scene.config.n_steps
 
     def one(p):
-        d = d0.replace(qpos=p["qpos"])
-        d_start = mjx.forward(mx, d)
-
-        def body(carry, k):
-            d, q_app, q_grasp, bad = carry
-            ctrl, qfrc, eq = control(scene, k, p)
-            d = mjx.step(mx, d.replace(ctrl=ctrl, qfrc_applied=qfrc, eq_active=eq))
-            ok = jnp.all(jnp.isfinite(d.qpos)) & jnp.all(jnp.isfinite(d.qvel))
-            bad = bad | ~ok
-            q_app = jnp.where(k == i_app, d.qpos, q_app)
-            q_grasp = jnp.where(k == i_grasp, d.qpos, q_grasp)
-            return (d, q_app, q_grasp, bad), None
-
-        init = (d, p["qpos"], p["qpos"], jnp.array(False))
-        (d, q_app, q_grasp, bad), _ = jax.lax.scan(body, init, jnp.arange(n))
+        d_start = mjx.forward(mx, d0.replace(qpos=p["qpos"]))
+        d, q_app, q_grasp, bad = rollout_states(scene, mx, d0, p)
         d_grasp = mjx.forward(mx, d0.replace(qpos=jnp.nan_to_num(q_grasp)))
         return labels(
             scene, p, q_app, q_grasp, d.qpos, bad, _contacts_mjx(d_grasp), _contacts_mjx(d_start)
         )
 
     return jax.jit(jax.vmap(one, in_axes=(0,)))
+
+
+def chunk_size(n: int, execution: ExecutionConfig) -> int:
+    """Candidates per jitted call: a size bucket, a multiple of the local device count."""
+    k = len(jax.local_devices())
+    size = min(execution.simulation_chunk, bucket(n, minimum=8))
+    return -(-size // k) * k
 
 
 def run(
@@ -71,12 +102,12 @@ def run(
     """
     fn = _mjx_runner(scene)
     n = len(params["travel"])
-    size = min(execution.simulation_chunk, bucket(n, minimum=8))
+    size = chunk_size(n, execution)
     parts = []
     for s in range(0, n, size):
         chunk = {k: v[s : s + size] for k, v in params.items()}
         m = len(chunk["travel"])
-        out = fn({k: jnp.asarray(pad_rows(v, size)) for k, v in chunk.items()})
+        out = fn(shard_batch({k: jnp.asarray(pad_rows(v, size)) for k, v in chunk.items()}, size))
         parts.append({k: np.asarray(v)[:m] for k, v in out.items()})
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     return GraspOutcomes(**merged, backend="mjx")
