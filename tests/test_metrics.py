@@ -134,3 +134,26 @@ def test_bad_inputs_raise():
     bad.vertices[0] = np.nan
     with pytest.raises(InvalidInputError):
         centroid_error(bad, box)
+
+
+def test_surface_distance_sees_a_mesh_moved_in_place():
+    """The AABB tree kept on the mesh is rebuilt when its vertices change."""
+    mesh = trimesh.creation.box((0.1, 0.1, 0.1))
+    p = np.array([[0.0, 0.0, 0.2]])
+    np.testing.assert_allclose(surface_distance(p, mesh), [0.15], atol=1e-12)
+    mesh.vertices += [0.0, 0.0, 0.05]
+    np.testing.assert_allclose(surface_distance(p, mesh), [0.10], atol=1e-12)
+
+
+def test_surface_distance_is_exact_on_uneven_triangles():
+    """A sphere of small triangles beside a box of large ones (the Delaunay baseline's walls):
+    every distance equals the brute-force minimum over all triangles."""
+    parts = [trimesh.creation.icosphere(3, 0.03), trimesh.creation.box((0.2, 0.02, 0.2))]
+    parts[1].apply_translation([0.1, 0.0, 0.0])
+    mesh = trimesh.util.concatenate(parts)
+    pts = np.random.default_rng(3).normal(0, 0.06, size=(200, 3))
+    tri = mesh.triangles
+    cp = trimesh.triangles.closest_point(np.repeat(tri, len(pts), axis=0),
+                                         np.tile(pts, (len(tri), 1)))  # fmt: skip
+    brute = np.linalg.norm(cp - np.tile(pts, (len(tri), 1)), axis=1).reshape(len(tri), -1).min(0)
+    np.testing.assert_allclose(surface_distance(pts, mesh), brute, atol=2e-7)

@@ -21,31 +21,13 @@ from symjax.evaluation.records import MeshResult, PlaneResult, ViewRecord
 __all__ = ["process_batch"]
 
 
-def _deviation_mesh(mesh):
-    """The mesh to measure distances to: large triangles split, the same surface.
-
-    ``symjax.metrics.surface_distance`` bounds its candidate search by the largest triangle of
-    the mesh; the Delaunay baseline's long side walls (front contour to back sheet) make that
-    bound cover the whole mesh and the query ~30x slower. Midpoint subdivision keeps the surface
-    exactly, so the distances are unchanged.
-    """
-    import trimesh
-
-    edges = np.linalg.norm(np.diff(mesh.vertices[mesh.edges_unique], axis=1)[:, 0], axis=1)
-    limit = 4.0 * float(np.median(edges))
-    if float(edges.max()) <= limit:
-        return mesh
-    v, f = trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=limit, max_iter=12)
-    return trimesh.Trimesh(v, f, process=False)
-
-
 def _measure(view, method: str, mesh, cfg: EvalConfig) -> MeshResult:
     """Deviation statistics (mm) and centroid error of one mesh against the view's truth."""
     from symjax.metrics import centroid_error, mesh_deviation
 
     if view.gt_mesh is None:
         return MeshResult(method, True, n_faces=int(len(mesh.faces)))
-    dev = mesh_deviation(view.gt_mesh, _deviation_mesh(mesh), n_samples=cfg.n_samples)
+    dev = mesh_deviation(view.gt_mesh, mesh, n_samples=cfg.n_samples)
     return MeshResult(
         method,
         True,
