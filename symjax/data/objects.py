@@ -37,18 +37,12 @@ class ObjectEntry:
 
 
 def _read_mesh(path: Path, scale: float):
-    import trimesh
+    from symjax.datasets.catalogue import load_source_mesh
 
     try:
-        mesh = trimesh.load_mesh(path, process=True)
-    except Exception as e:  # trimesh raises many types for a bad file
-        raise FileFormatError(
-            f"cannot read mesh {str(path)!r}: {e}; expected OBJ, STL or PLY"
-        ) from None
-    if isinstance(mesh, trimesh.Scene):
-        mesh = mesh.to_geometry() if hasattr(mesh, "to_geometry") else mesh.dump(concatenate=True)
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise FileFormatError(f"{str(path)!r} holds no triangle mesh")
+        mesh, _ = load_source_mesh(path)
+    except FileFormatError as e:
+        raise FileFormatError(f"{e}; expected an OBJ, STL or PLY triangle mesh") from None
     if not np.all(np.isfinite(mesh.vertices)):
         raise FileFormatError(f"{str(path)!r} has non-finite vertices")
     mesh.apply_scale(scale)

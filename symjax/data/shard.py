@@ -36,9 +36,7 @@ def _tcp_poses(cands: Any, travel: np.ndarray) -> np.ndarray:
     a = np.asarray(cands.approach, np.float64)
     T = np.tile(np.eye(4), (len(a), 1, 1))
     T[:, :3, :3] = np.asarray(cands.frames(), np.float64)
-    start = (
-        np.asarray(cands.point, np.float64) - np.asarray(cands.distance, np.float64)[:, None] * a
-    )
+    start = np.asarray(cands.start_positions(), np.float64)
     T[:, :3, 3] = start + np.asarray(travel, np.float64)[:, None] * a
     return T
 

@@ -20,7 +20,7 @@ from symjax.grasp.scene import GraspScene
 from symjax.grasp.scene_key import bind, object_arrays, static_key
 from symjax.grasp.schedule import control, snap_steps
 
-__all__ = ["run"]
+__all__ = ["host_labels", "run"]
 
 _MAX_C_CONTACTS = 64
 
@@ -80,6 +80,38 @@ def _c_contacts(m, d, qpos: np.ndarray) -> tuple[np.ndarray, ...]:
     return dist, pos, nrm, g1, g2
 
 
+def host_labels(scene: GraspScene, padded: dict, qpos: np.ndarray, states: tuple, d,
+                arrays: dict) -> dict[str, np.ndarray]:  # fmt: skip
+    """Labels of one chunk from its kept states, the contacts found by C MuJoCo on the host.
+
+    Args:
+        scene: The grasp scene.
+        padded: The chunk's candidate parameters, padded to its size bucket ``P``.
+        qpos: (B, nq) the chunk's start states (B <= P).
+        states: ``(q_app, q_grasp, q_end, bad)``, the first B rows are the chunk's.
+        d: A scratch :class:`mujoco.MjData` of the scene's model.
+        arrays: The scene's object arrays as JAX arrays
+            (:func:`~symjax.grasp.scene_key.object_arrays`).
+
+    Returns:
+        The label arrays of the B candidates.
+    """
+    _, label = _compiled(scene)
+    B, P = len(qpos), len(padded["travel"])
+    q_app, q_grasp, q_end, bad = (np.asarray(x)[:B] for x in states)
+    gc = _c_contacts(scene.model, d, q_grasp)
+    sc = _c_contacts(scene.model, d, qpos)
+
+    def pad(x):
+        return jnp.asarray(pad_rows(np.asarray(x), P))
+
+    out = label(
+        padded, arrays, pad(q_app), pad(q_grasp), pad(q_end), pad(bad),
+        tuple(pad(x) for x in gc), tuple(pad(x) for x in sc),
+    )  # fmt: skip
+    return {k: np.asarray(v)[:B] for k, v in out.items()}
+
+
 def run(
     scene: GraspScene, params: dict[str, np.ndarray], execution: ExecutionConfig
 ) -> GraspOutcomes:
@@ -104,7 +136,7 @@ def run(
     i_app, i_grasp, i_end = snap_steps(cfg)
     n = len(params["travel"])
     size = 128  # keeps the (batch, steps, state) trajectory buffer near 50 MB
-    sched, label = _compiled(scene)
+    sched, _ = _compiled(scene)
     arrays = {k: jnp.asarray(v) for k, v in object_arrays(scene).items()}
     # Zero warm start for every rollout: the solver otherwise starts from whatever the thread's
     # MjData held from its previous rollout, and reruns differ with the thread schedule.
@@ -127,17 +159,7 @@ def run(
         bad = ~np.all(np.isfinite(state), axis=(1, 2)) | (
             np.abs(t_end - cfg.n_steps * cfg.timestep) > 0.5 * cfg.timestep
         )
-        q_app, q_grasp, q_end = qs[:, i_app], qs[:, i_grasp], qs[:, i_end]
-        gc = _c_contacts(m, d, q_grasp)
-        sc = _c_contacts(m, d, chunk["qpos"])
-
-        def pad(x, P=P):
-            return jnp.asarray(pad_rows(np.asarray(x), P))
-
-        out = label(
-            padded, arrays, pad(q_app), pad(q_grasp), pad(q_end), pad(bad),
-            tuple(pad(x) for x in gc), tuple(pad(x) for x in sc),
-        )  # fmt: skip
-        parts.append({k: np.asarray(v)[:B] for k, v in out.items()})
+        states = (qs[:, i_app], qs[:, i_grasp], qs[:, i_end], bad)
+        parts.append(host_labels(scene, padded, chunk["qpos"], states, d, arrays))
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     return GraspOutcomes(**merged, backend="mujoco")

@@ -66,30 +66,19 @@ def run(
         )
     import mujoco
 
-    from symjax.grasp.backends.mujoco_backend import _c_contacts, _compiled
+    from symjax.grasp.backends.mujoco_backend import host_labels
+    from symjax.grasp.scene_key import object_arrays
 
     n = len(params["travel"])
     size = chunk_size(n, execution)
     fn = _warp_runner(scene, size)
-    _, label = _compiled(scene)
-    from symjax.grasp.scene_key import object_arrays
-
     arrays = {k: jnp.asarray(v) for k, v in object_arrays(scene).items()}
-    m, d = scene.model, mujoco.MjData(scene.model)
+    d = mujoco.MjData(scene.model)
     parts = []
     for s in range(0, n, size):
         chunk = {k: v[s : s + size] for k, v in params.items()}
-        B = len(chunk["travel"])
         padded = {k: jnp.asarray(pad_rows(v, size)) for k, v in chunk.items()}
-        q_app, q_grasp, q_end, bad = (np.asarray(x) for x in fn(shard_batch(padded, size)))
-        gc = _c_contacts(m, d, q_grasp[:B])
-        sc = _c_contacts(m, d, chunk["qpos"])
-
-        def pad(x):
-            return jnp.asarray(pad_rows(np.asarray(x), size))
-
-        out = label(padded, arrays, pad(q_app[:B]), pad(q_grasp[:B]), pad(q_end[:B]),
-                    pad(bad[:B]), tuple(pad(x) for x in gc), tuple(pad(x) for x in sc))  # fmt: skip
-        parts.append({k: np.asarray(v)[:B] for k, v in out.items()})
+        states = fn(shard_batch(padded, size))  # (q_app, q_grasp, q_end, bad), device arrays
+        parts.append(host_labels(scene, padded, chunk["qpos"], states, d, arrays))
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     return GraspOutcomes(**merged, backend="mjx_warp")
