@@ -178,6 +178,9 @@ class Observation:
         camera: The camera that took the view.
         mask: Binary segmentation mask of the object, shape (H, W), bool.
         depth: Depth image of the object, shape (H, W), metres along the optical axis; 0 = none.
+            Outside the mask, a depth > 0 marks a surface in front of the object that hides it
+            (an occluder, set by :func:`symjax.perception.segment`): the symmetry search takes
+            those pixels as where the object may be hidden, not as empty space.
     """
 
     points: Any

@@ -58,6 +58,7 @@ from symjax.errors import (
     UnknownNameError,
 )
 from symjax.execution import ExecutionConfig
+from symjax.perception.synthetic import clutter_scene
 from symjax.symmetry import SymmetryConfig, search, search_batch
 
 VIEW, _ = primitive_view("box", math.radians(30), noise=0.001, seed=0)
@@ -355,6 +356,12 @@ CASES = [
     ("write-mesh-format", lambda d: io.write_mesh(d / "a.abc", BOX), FileFormatError, ["'.abc'", ".obj"]),
     ("mesh-missing", lambda d: io.read_mesh(d / "none.obj"), MissingFileError, ["none.obj"]),
     # --- perception ------------------------------------------------------------------------
+    ("segmentation-crease", lambda d: perception.SegmentationConfig(crease_threshold=-0.1), ConfigError, ["crease_threshold", "> 0"]),
+    ("segmentation-crease-weak", lambda d: perception.SegmentationConfig(crease_weak=1.5), ConfigError, ["crease_weak", "(0, 1]"]),
+    ("segmentation-crease-scale", lambda d: perception.SegmentationConfig(crease_scale_px=0), ConfigError, ["crease_scale_px", ">= 1"]),
+    ("segment-no-table-without-pose", lambda d: perception.segment(np.random.default_rng(0).uniform(0.5, 2.0, (CAM.height, CAM.width)), symjax.Camera.create(CAM.K, np.eye(4), CAM.width, CAM.height)), DegenerateGeometryError, ["no table", "min_table_fraction"]),
+    ("clutter-kind", lambda d: clutter_scene(("box", "teapot")), InvalidInputError, ["'teapot'", "box", "can", "bottle"]),
+    ("clutter-arrangement", lambda d: clutter_scene(("box", "can"), arrangement="pile"), InvalidInputError, ["'pile'", "side_by_side", "front_back", "cluster"]),
     ("segment-no-camera", lambda d: perception.segment(VIEW.depth), InvalidInputError, ["camera"]),
     ("segment-config", lambda d: perception.segment(PTS, config={"seed": 1}), ConfigError, ["SegmentationConfig", "dict"]),
     # --- grasp, hands, robots, decomposition -------------------------------------------------

@@ -18,6 +18,7 @@ from symjax.errors import (
 )
 from symjax.io import DepthFrame, PointCloud
 from symjax.perception import SegmentationConfig, fit_table_plane, segment
+from symjax.perception.clutter_benchmark import match_ious
 from symjax.perception.ransac import plane_costs
 from symjax.perception.synthetic import K_SCENE, tabletop_scene
 
@@ -27,19 +28,7 @@ NOISE = 0.002
 
 def _match_ious(truth: np.ndarray, scene) -> np.ndarray:
     """Best one-to-one IoU of each truth object with a found object (0 when unmatched)."""
-    from scipy.optimize import linear_sum_assignment
-
-    n = int(truth.max()) + 1
-    iou = np.zeros((n, max(len(scene), 1)))
-    for i in range(n):
-        t = truth == i
-        for j, o in enumerate(scene.objects):
-            m = np.asarray(o.mask)
-            iou[i, j] = (t & m).sum() / (t | m).sum()
-    r, c = linear_sum_assignment(-iou)
-    out = np.zeros(n)
-    out[r] = iou[r, c]
-    return out
+    return match_ious(truth, scene)[0]
 
 
 def _normal_error_deg(table) -> float:

@@ -86,18 +86,20 @@ def scene_model(
 
 
 def render_depth(
-    model: mujoco.MjModel, camera: Camera, max_depth: float = 10.0
-) -> tuple[np.ndarray, np.ndarray]:
+    model: mujoco.MjModel, camera: Camera, max_depth: float = 10.0, normals: bool = False
+) -> tuple[np.ndarray, ...]:
     """Renders the depth image and per-pixel geom ids of a static scene.
 
     Args:
         model: Scene from :func:`scene_model` (or any model; geoms at their default pose).
         camera: Pinhole camera.
         max_depth: Rays longer than this (metres) count as misses.
+        normals: Also return the hit surfaces' unit normals.
 
     Returns:
         ``(depth, geom_id)``: float32 (H, W) metres along the optical axis (0 = miss) and
-        int32 (H, W) hit geom id (-1 = miss).
+        int32 (H, W) hit geom id (-1 = miss); with ``normals``, a third (H, W, 3) float64 array
+        of world-frame normals (0 at misses).
     """
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -111,6 +113,7 @@ def render_depth(
     n = unit.shape[0]
     geomid = np.full(n, -1, np.int32)
     dist = np.full(n, -1.0)
+    nrm = np.zeros(3 * n) if normals else None
     mujoco.mj_multiRay(
         model,
         data,
@@ -121,10 +124,14 @@ def render_depth(
         -1,
         geomid,
         dist,
-        None,
+        nrm,
         n,
         max_depth,
     )
     hit = (dist >= 0) & (geomid >= 0)
     depth = np.where(hit, dist / scale, 0.0).reshape(camera.height, camera.width)
-    return depth.astype(np.float32), np.where(hit, geomid, -1).reshape(camera.height, camera.width)
+    out = depth.astype(np.float32), np.where(hit, geomid, -1).reshape(camera.height, camera.width)
+    if normals:
+        nrm = np.where(hit[:, None], nrm.reshape(n, 3), 0.0)
+        return (*out, nrm.reshape(camera.height, camera.width, 3))
+    return out

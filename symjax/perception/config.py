@@ -42,6 +42,23 @@ class SegmentationConfig:
             otherwise split objects); they stay out of the objects' points.
         depth_jump: Depth step (m) between neighbouring pixels that separates two surfaces ...
         depth_jump_rel: ... plus this fraction of the depth (stereo noise grows with depth).
+        crease_threshold: Concavity (``tan`` of half the bend, see
+            :func:`symjax.perception.creases.concavity`) above which a pixel is on a crease
+            between touching objects; None = split at depth steps only.
+        crease_weak: Hysteresis: concavities over this fraction of ``crease_threshold`` are
+            creases where they connect to one over it (1 = no hysteresis).
+        crease_max_step: The concavity ignores samples farther than this in depth (m) from
+            the pixel: the far side of a large step is no crease (the step test cuts it).
+        crease_scale_px: Half span (pixels) of the concavity's second difference.
+        crease_smooth_px: Diameter (pixels) of the bilateral filter before it; 0 = none.
+        crease_smooth_depth: Depth difference (m) that filter still averages across.
+        support_height: A part split off by creases with 80 % of its footprint on an adjacent
+            part's footprint is joined to that part: a lower one if its own lowest points are
+            this high (m) above the table (a bottle's neck), else a larger one.
+        support_narrow: A part split off by creases that is narrower than this (m) on the table
+            is joined to the adjacent part it shares the longest boundary with, wherever it
+            stands (the neck of a bottle whose body is hidden, a sliver of a real object cut
+            by stereo noise); thinner objects touching another one come out joined to it.
         cluster_tolerance: Euclidean clustering distance for point-cloud input, metres.
         voxel_size: Voxel edge (m) the cloud is downsampled to before clustering (cloud input).
         min_cluster_points: Fewest seed points (pixels above ``seed_height``) of an object.
@@ -75,6 +92,14 @@ class SegmentationConfig:
     fill_holes_px: int = 2
     depth_jump: float = 0.01
     depth_jump_rel: float = 0.02
+    crease_threshold: float | None = None
+    crease_weak: float = 0.6
+    crease_max_step: float = 0.12
+    crease_scale_px: int = 4
+    crease_smooth_px: int = 9
+    crease_smooth_depth: float = 0.01
+    support_height: float = 0.02
+    support_narrow: float = 0.04
     cluster_tolerance: float = 0.012
     voxel_size: float = 0.005
     min_cluster_points: int = 200
@@ -112,6 +137,20 @@ class SegmentationConfig:
             )
         if self.depth_jump <= 0 or self.depth_jump_rel < 0:
             raise ConfigError("depth_jump must be > 0 and depth_jump_rel >= 0")
+        if self.crease_threshold is not None and not (
+            math.isfinite(self.crease_threshold) and self.crease_threshold > 0
+        ):
+            raise ConfigError(f"crease_threshold must be None or > 0, got {self.crease_threshold}")
+        if not 0 < self.crease_weak <= 1:
+            raise ConfigError(f"crease_weak must be in (0, 1], got {self.crease_weak}")
+        if not self.crease_max_step > 0:
+            raise ConfigError(f"crease_max_step must be > 0 m, got {self.crease_max_step}")
+        if self.crease_scale_px < 1 or self.crease_smooth_px < 0 or self.crease_smooth_depth <= 0:
+            raise ConfigError(
+                "crease_scale_px must be >= 1 px, crease_smooth_px >= 0 and crease_smooth_depth"
+                f" > 0 m; got {self.crease_scale_px}, {self.crease_smooth_px},"
+                f" {self.crease_smooth_depth}"
+            )
         if self.refine_sample < 3:
             raise ConfigError(f"refine_sample must be >= 3, got {self.refine_sample}")
         if self.refine_iterations < 0 or self.min_cluster_points < 1 or self.sor_neighbours < 1:

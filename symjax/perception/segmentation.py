@@ -19,35 +19,13 @@ from symjax.geometry import pixel_rays
 from symjax.observation import Observation, fill_mask
 from symjax.perception.clusters import cloud_clusters, grid_outliers, image_clusters
 from symjax.perception.config import SegmentationConfig
+from symjax.perception.creases import crease_concavity, crease_mask
+from symjax.perception.object_info import ObjectInfo, describe_objects, occluder_depth
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
+from symjax.perception.support import join_supported
 from symjax.table import TablePlane
 
 __all__ = ["ObjectInfo", "TableScene", "segment"]
-
-
-@dataclasses.dataclass(frozen=True)
-class ObjectInfo:
-    """What the segmentation knows about one object hypothesis.
-
-    Attributes:
-        n_points: Points of the object.
-        centroid: Centroid (3,) of its points, metres, world frame.
-        extent: Largest width of its footprint on the table, metres.
-        touches_border: Its mask reaches the image border (the view is cut; the object may be
-            larger than seen).
-        neighbours: Indices of objects whose masks touch this one in the image.
-        occluded_by: The neighbours that are in front of it (they hide part of it).
-        maybe_merged: Its footprint is wider than ``max_object_extent``: it may be several
-            touching objects that no depth step separates.
-    """
-
-    n_points: int
-    centroid: np.ndarray
-    extent: float
-    touches_border: bool
-    neighbours: tuple[int, ...]
-    occluded_by: tuple[int, ...]
-    maybe_merged: bool
 
 
 @dataclasses.dataclass(frozen=True)
@@ -63,6 +41,12 @@ class TableScene:
             of the table inliers).
         warnings: Human-readable notes: empty table, objects cut by the border, touching or
             possibly merged objects.
+        frame: The world frame of the results: ``"given"`` (the camera's pose, or the cloud's
+            frame) or ``"table"`` (the camera had no pose: z along the table normal towards the
+            camera, origin on the table below the objects' centre, x along the optical axis
+            projected on the table).
+        T_world_input: (4, 4) transform from the input's frame (the camera frame when the pose
+            was unknown) to ``frame``; identity for ``"given"``.
     """
 
     table: TablePlane
@@ -71,6 +55,8 @@ class TableScene:
     labels: np.ndarray
     table_mask: np.ndarray
     warnings: tuple[str, ...]
+    frame: str = "given"
+    T_world_input: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(4))
 
     def __len__(self) -> int:
         return len(self.objects)
@@ -107,86 +93,6 @@ def _in_workspace(points: np.ndarray, cfg: SegmentationConfig) -> np.ndarray | b
     lo = np.asarray(cfg.workspace_min, np.float32)
     hi = np.asarray(cfg.workspace_max, np.float32)
     return np.all((points >= lo) & (points <= hi), axis=-1)
-
-
-def _footprint_extent(points: np.ndarray, table: TablePlane) -> float:
-    n = np.asarray(table.normal, np.float64)
-    q = points - np.outer(points @ n, n)
-    q = q - q.mean(axis=0)
-    _, _, vt = np.linalg.svd(q[:: max(1, len(q) // 2000)], full_matrices=False)
-    a = q @ vt[:2].T
-    return float(np.max(a.max(axis=0) - a.min(axis=0)))
-
-
-def _relations(labels: np.ndarray, depth: np.ndarray, k: int, box, cfg: SegmentationConfig):
-    """Neighbours of object ``k`` in the image and which of them are in front of it."""
-    import cv2
-
-    pad = cfg.touch_px + 1
-    r0, r1 = max(box[0].start - pad, 0), min(box[0].stop + pad, labels.shape[0])
-    c0, c1 = max(box[1].start - pad, 0), min(box[1].stop + pad, labels.shape[1])
-    lab = labels[r0:r1, c0:c1]
-    mk = (lab == k).astype(np.uint8)
-    ker = np.ones((2 * cfg.touch_px + 1, 2 * cfg.touch_px + 1), np.uint8)
-    ring = (cv2.dilate(mk, ker) > 0) & (mk == 0)
-    near = np.unique(lab[ring])
-    near = [int(j) for j in near if j >= 0 and j != k]
-    occluders = []
-    dep = depth[r0:r1, c0:c1]
-    for j in near:
-        mj = (lab == j).astype(np.uint8)
-        theirs = dep[ring & (lab == j)]
-        ours = dep[(cv2.dilate(mj, ker) > 0) & (mk > 0)]
-        theirs, ours = theirs[theirs > 0], ours[ours > 0]
-        if theirs.size and ours.size and np.median(theirs) < np.median(ours):
-            occluders.append(j)
-    return tuple(near), tuple(occluders)
-
-
-def _touches_border(mask: np.ndarray, px: int) -> bool:
-    b = max(px, 1)
-    return bool(mask[:b].any() or mask[-b:].any() or mask[:, :b].any() or mask[:, -b:].any())
-
-
-def _describe(
-    objects, labels, depth, table, cfg: SegmentationConfig
-) -> tuple[tuple[ObjectInfo, ...], tuple[str, ...]]:
-    from scipy.ndimage import find_objects
-
-    infos, notes = [], []
-    boxes = find_objects(labels + 1, max_label=len(objects))
-    for k, obs in enumerate(objects):
-        pts = obs.valid_points().astype(np.float64)
-        box = boxes[k] if k < len(boxes) else None
-        mask = np.zeros(labels.shape, bool)
-        if box is not None:
-            mask[box] = labels[box] == k
-        near, occ = _relations(labels, depth, k, box, cfg) if mask.any() else ((), ())
-        extent = _footprint_extent(pts, table)
-        info = ObjectInfo(
-            n_points=len(pts),
-            centroid=pts.mean(axis=0),
-            extent=extent,
-            touches_border=_touches_border(mask, cfg.border_px),
-            neighbours=near,
-            occluded_by=occ,
-            maybe_merged=extent > cfg.max_object_extent,
-        )
-        infos.append(info)
-        if info.touches_border:
-            notes.append(f"object {k} is cut by the image border; it may extend beyond the view")
-        if occ:
-            notes.append(f"object {k} is partly hidden by object(s) {list(occ)} in front of it")
-        elif near:
-            notes.append(f"object {k} touches object(s) {list(near)} in the image")
-        if info.maybe_merged:
-            notes.append(
-                f"object {k} is {extent:.2f} m wide (> max_object_extent "
-                f"{cfg.max_object_extent} m): it may be several touching objects"
-            )
-    if not objects:
-        notes.append("no objects found above the table (empty table)")
-    return tuple(infos), tuple(notes)
 
 
 def _table_hull(on_table: np.ndarray) -> np.ndarray:
@@ -262,7 +168,14 @@ def _segment_depth(depth: np.ndarray, camera: Camera, cfg: SegmentationConfig) -
         if cfg.workspace_min is not None:
             ids = np.ravel_multi_index(np.nonzero(cand), hw)
             cand.reshape(-1)[ids] = _in_workspace(world(ids), cfg)
-        lab = image_clusters(conn[sl], height[sl], cand[sl], cfg)
+        kappa = crease = None
+        if cfg.crease_threshold is not None:
+            kappa = crease_concavity(conn[sl], float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])), cfg)
+            crease = crease_mask(kappa, cfg)
+        lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease=crease)
+        if kappa is not None and lab.max() > 0:
+            pts = (rays[sl] * conn[sl][..., None]) @ R.T + t
+            lab = join_supported(lab, pts, height[sl], n, cfg, depth=conn[sl])
         lab[~valid[sl]] = -1
         lab[grid_outliers(depth[sl], rays[sl], lab, cfg)] = -1
         labels[sl] = lab
@@ -287,8 +200,50 @@ def _segment_depth(depth: np.ndarray, camera: Camera, cfg: SegmentationConfig) -
             )
         )
     labels = np.where(labels >= 0, keep[np.maximum(labels, 0)], -1).astype(np.int32)
-    infos, notes = _describe(objects, labels, depth, table, cfg)
+    infos, notes = describe_objects(objects, labels, depth, table, cfg)
+    # Neighbours in front hide part of an object: their pixels keep their depth outside its mask
+    # so that the symmetry search does not take them for empty space (Eq. 3).
+    objects = [
+        dataclasses.replace(
+            o,
+            depth=np.where(
+                np.asarray(o.mask), o.depth, occluder_depth(labels, depth, i.occluded_by)
+            ).astype(np.float32),
+        )
+        if i.occluded_by
+        else o
+        for o, i in zip(objects, infos, strict=True)
+    ]
     return TableScene(table, tuple(objects), infos, labels, on_table, notes)
+
+
+def _in_table_frame(scene: TableScene, camera: Camera) -> TableScene:
+    """The scene re-expressed in the table frame (see :attr:`TableScene.frame`)."""
+    z = np.asarray(scene.table.normal, np.float64)
+    cam = np.asarray(camera.T_world_cam, np.float64)
+    x = cam[:3, 2] - (cam[:3, 2] @ z) * z  # the optical axis on the table
+    if np.linalg.norm(x) < 1e-6:  # looking straight down
+        x = np.cross(z, [0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0])
+    x /= np.linalg.norm(x)
+    if scene.objects:
+        c = np.mean([i.centroid for i in scene.info], axis=0)
+    else:
+        c = cam[:3, 3] + cam[:3, 2]  # a metre along the optical axis
+    origin = c - (c @ z + float(scene.table.offset)) * z
+    R = np.stack([x, np.cross(z, x), z])  # rows: the new axes in the input frame
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, -R @ origin
+    infos = tuple(
+        dataclasses.replace(i, centroid=R @ np.asarray(i.centroid) + T[:3, 3]) for i in scene.info
+    )
+    return dataclasses.replace(
+        scene,
+        table=scene.table.transformed(T),
+        objects=tuple(o.transformed(T) for o in scene.objects),
+        info=infos,
+        frame="table",
+        T_world_input=T,
+    )
 
 
 def _segment_cloud(
@@ -340,8 +295,14 @@ def _segment_cloud(
         labels = np.full((1, 1), -1, np.int32)
         depth = np.zeros((1, 1), np.float32)
         table_mask = np.zeros((1, 1), bool)
-    infos, notes = _describe(objects, labels, depth, table, cfg)
+    infos, notes = describe_objects(objects, labels, depth, table, cfg)
     return TableScene(table, tuple(objects), infos, labels, table_mask, notes)
+
+
+def _framed(scene: TableScene, camera: Camera) -> TableScene:
+    if np.allclose(np.asarray(camera.T_world_cam, np.float64), np.eye(4)):
+        return _in_table_frame(scene, camera)
+    return scene
 
 
 def segment(
@@ -358,7 +319,9 @@ def segment(
 
     Returns:
         A :class:`TableScene`; an empty table gives no objects and a warning, objects cut by the
-        image border or touching each other are flagged in :attr:`TableScene.info`.
+        image border or touching each other are flagged in :attr:`TableScene.info`. A depth
+        image whose camera has no pose (``T_world_cam`` the identity) is answered in the table
+        frame the plane defines (:attr:`TableScene.frame` says which).
 
     Raises:
         InvalidInputError: Unsupported input, or a depth image or cloud without a camera.
@@ -375,7 +338,9 @@ def segment(
     if camera is not None and not isinstance(camera, Camera):
         raise InvalidInputError(f"camera must be a symjax.Camera, got {type(camera).__name__}")
     if isinstance(data, DepthFrame):
-        return _segment_depth(data.depth, camera or data.camera, config)
+        return _framed(
+            _segment_depth(data.depth, camera or data.camera, config), camera or data.camera
+        )
     if isinstance(data, PointCloud):
         return _segment_cloud(data.points, camera, data.viewpoint, config)
     try:
@@ -387,7 +352,7 @@ def segment(
             " second argument: segment(depth, camera))"
         ) from None
     if camera is not None and arr.shape == (camera.height, camera.width):
-        return _segment_depth(arr, camera, config)
+        return _framed(_segment_depth(arr, camera, config), camera)
     if arr.ndim == 2 and arr.shape[1] == 3:
         return _segment_cloud(arr, camera, None, config)
     if camera is None and arr.ndim == 2:

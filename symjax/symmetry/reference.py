@@ -34,7 +34,8 @@ def score_planes_numpy(
     mask = np.asarray(obs.mask, bool)
     depth = np.asarray(obs.depth, np.float64)
     H, W = mask.shape
-    dt = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    seen = mask | (depth > 0)  # objects in front of it keep their depth outside its mask
+    dt = cv2.distanceTransform((~seen).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     T = np.asarray(obs.camera.T_world_cam, np.float64)
     K = np.asarray(obs.camera.K, np.float64)
     outside = np.zeros(len(normals))

@@ -42,6 +42,19 @@ class ViewArrays:
 # Host-side preparation
 
 
+def mask_distance(mask: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """Distance (pixels, exact Euclidean) from every pixel to where the object may be seen.
+
+    That is its mask and the pixels of the objects in front of it (depth > 0 outside the mask,
+    see :func:`symjax.perception.segment`): a mirrored point behind an occluder is hidden, not
+    contradicted, and is judged by the occluder's depth instead (Eq. 3's in-front test).
+    """
+    import cv2
+
+    seen = np.asarray(mask, bool) | (np.asarray(depth) > 0)
+    return cv2.distanceTransform((~seen).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
 def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
     """Packs one observation for the kernel: distance transform and depth in one image.
 
@@ -52,7 +65,6 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
     Raises:
         ShapeError: If ``obs`` is batched or its images disagree with its camera.
     """
-    import cv2
 
     if not isinstance(obs, Observation):
         raise InvalidInputError(f"expected a symjax.Observation, got {type(obs).__name__}")
@@ -89,8 +101,7 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
         )
     if n_points is not None:
         obs = obs.padded(n_points)
-    # Distance (pixels) from every pixel to the nearest mask pixel; exact Euclidean.
-    dt = cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    dt = mask_distance(mask, depth)
     T = np.asarray(obs.camera.T_world_cam, np.float64)
     return ViewArrays(
         points=jnp.asarray(np.asarray(obs.points, np.float32)),

@@ -1,0 +1,108 @@
+"""Concave creases of a depth image: where two touching objects meet.
+
+Objects that touch leave no depth step between them, but their surfaces meet in a valley: seen
+from the camera the contact is concave, while an object's own edges (a box's corners, a can's
+rim) are convex. This is the local-convexity cue of LCCP (Stein et al., CVPR 2014) computed on
+the pixel grid: for each pixel and four image directions, the inverse depth of the pixels
+``scale_px`` before and after it is compared with its own. Inverse depth is affine in the pixel
+coordinates on any plane, so the second difference vanishes on flat faces whatever their slant,
+and its sign tells valleys (the pixel lies beyond the chord of its neighbours) from ridges.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["concavity", "crease_concavity", "crease_mask"]
+
+# Image directions (drow, dcol) the second difference is taken along; diagonals span sqrt(2).
+_DIRECTIONS = ((0, 1), (1, 0), (1, 1), (1, -1))
+
+
+def _shift(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
+    """``out[r, c] = a[r + dr, c + dc]`` (0 outside)."""
+    out = np.zeros_like(a)
+    H, W = a.shape
+    rs, re = max(0, -dr), min(H, H - dr)
+    cs, ce = max(0, -dc), min(W, W - dc)
+    out[rs:re, cs:ce] = a[rs + dr : re + dr, cs + dc : ce + dc]
+    return out
+
+
+def concavity(
+    depth: np.ndarray,
+    focal: float,
+    scale_px: int = 5,
+    smooth_px: int = 9,
+    smooth_depth: float = 0.01,
+    max_step: float = np.inf,
+) -> np.ndarray:
+    """How concave the surface is at each pixel, as seen from the camera.
+
+    Args:
+        depth: (H, W) metres along the optical axis, 0 = none.
+        focal: Focal length, pixels.
+        scale_px: Half span of the second difference, pixels.
+        smooth_px: Diameter (pixels) of the edge-preserving (bilateral) filter applied first to
+            average out the sensor noise; 0 = none.
+        smooth_depth: Depth difference (m) the bilateral filter still averages across.
+        max_step: A direction counts only where both samples lie within this depth (m) of the
+            pixel: the far side of a large occluding step (a can behind a box) is no valley,
+            and the step test cuts it already.
+
+    Returns:
+        float32 (H, W): the largest over four directions of the valley depth (the sagitta, m) over
+        the half span (m) at the pixel's depth, ``~ tan`` of half the bend of a crease; <= 0 on
+        ridges and flat faces, 0 where a neighbour has no depth.
+    """
+    import cv2
+
+    z = np.asarray(depth, np.float32)
+    if smooth_px:
+        z = np.where(z > 0, cv2.bilateralFilter(z, smooth_px, smooth_depth, smooth_px / 3), 0)
+    w = np.where(z > 0, 1.0 / np.maximum(z, 1e-6), 0.0).astype(np.float32)
+    best = np.full(z.shape, -np.inf, np.float32)
+    for dr, dc in _DIRECTIONS:
+        a, b = _shift(w, -dr * scale_px, -dc * scale_px), _shift(w, dr * scale_px, dc * scale_px)
+        span = scale_px * (1.0 if dr == 0 or dc == 0 else np.sqrt(2.0))
+        ok = (a > 0) & (b > 0)
+        if np.isfinite(max_step):
+            za = np.where(a > 0, 1.0 / np.maximum(a, 1e-6), 0.0)
+            zb = np.where(b > 0, 1.0 / np.maximum(b, 1e-6), 0.0)
+            ok &= (np.abs(za - z) < max_step) & (np.abs(zb - z) < max_step)
+        # Sagitta z^2 * d2w / 2 over the half span z * span / f.
+        k = np.where(ok, (a + b - 2.0 * w) * (z * focal / (2.0 * span)), 0.0)
+        np.maximum(best, k, out=best)
+    return np.where(w > 0, best, np.float32(0.0))
+
+
+def crease_concavity(depth: np.ndarray, focal: float, config) -> np.ndarray:
+    """:func:`concavity` with the ``crease_*`` settings of a
+    :class:`symjax.perception.SegmentationConfig`."""
+    return concavity(
+        depth,
+        focal,
+        config.crease_scale_px,
+        config.crease_smooth_px,
+        config.crease_smooth_depth,
+        max_step=config.crease_max_step,
+    )
+
+
+def crease_mask(k: np.ndarray, config) -> np.ndarray:
+    """Pixels on a concave crease (bool (H, W)) from the concavity ``k`` (H, W), widened by a
+    pixel so that the cuts close.
+
+    Hysteresis as in Canny's edges: pixels over ``crease_weak * crease_threshold`` count where
+    they connect to one over ``crease_threshold``, so a crease keeps going where the two faces
+    meet at a shallower angle, while isolated noise does not cut.
+    """
+    import cv2
+
+    weak = (k > config.crease_weak * config.crease_threshold).astype(np.uint8)
+    n, lab = cv2.connectedComponents(weak, connectivity=8, ltype=cv2.CV_32S)
+    strong = np.zeros(n, bool)
+    strong[lab[k > config.crease_threshold]] = True
+    strong[0] = False
+    crease = strong[lab].astype(np.uint8)
+    return cv2.dilate(crease, np.ones((3, 3), np.uint8)) > 0

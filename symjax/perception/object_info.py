@@ -1,0 +1,125 @@
+"""What the segmentation knows about each object: size, border cuts, neighbours, occluders."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from symjax.perception.config import SegmentationConfig
+from symjax.table import TablePlane
+
+__all__ = ["ObjectInfo", "describe_objects", "occluder_depth"]
+
+
+@dataclasses.dataclass(frozen=True)
+class ObjectInfo:
+    """What the segmentation knows about one object hypothesis.
+
+    Attributes:
+        n_points: Points of the object.
+        centroid: Centroid (3,) of its points, metres, world frame.
+        extent: Largest width of its footprint on the table, metres.
+        touches_border: Its mask reaches the image border (the view is cut; the object may be
+            larger than seen).
+        neighbours: Indices of objects whose masks touch this one in the image.
+        occluded_by: The neighbours that are in front of it (they hide part of it).
+        maybe_merged: Its footprint is wider than ``max_object_extent``: it may be several
+            touching objects that no depth step separates.
+    """
+
+    n_points: int
+    centroid: np.ndarray
+    extent: float
+    touches_border: bool
+    neighbours: tuple[int, ...]
+    occluded_by: tuple[int, ...]
+    maybe_merged: bool
+
+
+def _footprint_extent(points: np.ndarray, table: TablePlane) -> float:
+    n = np.asarray(table.normal, np.float64)
+    q = points - np.outer(points @ n, n)
+    q = q - q.mean(axis=0)
+    _, _, vt = np.linalg.svd(q[:: max(1, len(q) // 2000)], full_matrices=False)
+    a = q @ vt[:2].T
+    return float(np.max(a.max(axis=0) - a.min(axis=0)))
+
+
+def _relations(labels: np.ndarray, depth: np.ndarray, k: int, box, cfg: SegmentationConfig):
+    """Neighbours of object ``k`` in the image and which of them are in front of it."""
+    import cv2
+
+    pad = cfg.touch_px + 1
+    r0, r1 = max(box[0].start - pad, 0), min(box[0].stop + pad, labels.shape[0])
+    c0, c1 = max(box[1].start - pad, 0), min(box[1].stop + pad, labels.shape[1])
+    lab = labels[r0:r1, c0:c1]
+    mk = (lab == k).astype(np.uint8)
+    ker = np.ones((2 * cfg.touch_px + 1, 2 * cfg.touch_px + 1), np.uint8)
+    ring = (cv2.dilate(mk, ker) > 0) & (mk == 0)
+    near = np.unique(lab[ring])
+    near = [int(j) for j in near if j >= 0 and j != k]
+    occluders = []
+    dep = depth[r0:r1, c0:c1]
+    for j in near:
+        mj = (lab == j).astype(np.uint8)
+        theirs = dep[ring & (lab == j)]
+        ours = dep[(cv2.dilate(mj, ker) > 0) & (mk > 0)]
+        theirs, ours = theirs[theirs > 0], ours[ours > 0]
+        if theirs.size and ours.size and np.median(theirs) < np.median(ours):
+            occluders.append(j)
+    return tuple(near), tuple(occluders)
+
+
+def _touches_border(mask: np.ndarray, px: int) -> bool:
+    b = max(px, 1)
+    return bool(mask[:b].any() or mask[-b:].any() or mask[:, :b].any() or mask[:, -b:].any())
+
+
+def describe_objects(
+    objects, labels, depth, table, cfg: SegmentationConfig
+) -> tuple[tuple[ObjectInfo, ...], tuple[str, ...]]:
+    from scipy.ndimage import find_objects
+
+    infos, notes = [], []
+    boxes = find_objects(labels + 1, max_label=len(objects))
+    for k, obs in enumerate(objects):
+        pts = obs.valid_points().astype(np.float64)
+        box = boxes[k] if k < len(boxes) else None
+        mask = np.zeros(labels.shape, bool)
+        if box is not None:
+            mask[box] = labels[box] == k
+        near, occ = _relations(labels, depth, k, box, cfg) if mask.any() else ((), ())
+        extent = _footprint_extent(pts, table)
+        info = ObjectInfo(
+            n_points=len(pts),
+            centroid=pts.mean(axis=0),
+            extent=extent,
+            touches_border=_touches_border(mask, cfg.border_px),
+            neighbours=near,
+            occluded_by=occ,
+            maybe_merged=extent > cfg.max_object_extent,
+        )
+        infos.append(info)
+        if info.touches_border:
+            notes.append(f"object {k} is cut by the image border; it may extend beyond the view")
+        if occ:
+            notes.append(f"object {k} is partly hidden by object(s) {list(occ)} in front of it")
+        elif near:
+            notes.append(f"object {k} touches object(s) {list(near)} in the image")
+        if info.maybe_merged:
+            notes.append(
+                f"object {k} is {extent:.2f} m wide (> max_object_extent "
+                f"{cfg.max_object_extent} m): it may be several touching objects"
+            )
+    if not objects:
+        notes.append("no objects found above the table (empty table)")
+    return tuple(infos), tuple(notes)
+
+
+def occluder_depth(labels: np.ndarray, depth: np.ndarray, occluders: tuple[int, ...]):
+    """Depth (H, W) of the pixels of the objects ``occluders`` (those in front of an object), 0
+    elsewhere: space the object may extend behind, not free space seen empty (Eq. 3)."""
+    if not occluders:
+        return np.zeros(labels.shape, np.float32)
+    return np.where(np.isin(labels, occluders), depth, 0.0).astype(np.float32)

@@ -1,0 +1,209 @@
+"""Parts cut off one object by a crease are joined back: a bottle's neck on its shoulder, a band
+of an object's side that a crease runs across.
+
+The crease cut cannot tell a neck on a shoulder from a small object standing on a box: both meet
+their support in a concave edge. Objects on a table stand on the table, and two objects cannot
+stand on the same piece of it, so a part is joined to an adjacent one when most of its footprint
+lies on that part's footprint (the other part being lower, for a part whose lowest points float
+above the table, or larger otherwise), or when it is too narrow to be an object of its own and
+meets a part without a depth step (stacked objects therefore come out as one hypothesis). An
+object partly hidden behind another is not joined: its footprint lies behind the front one's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from symjax.perception.config import SegmentationConfig
+
+__all__ = ["join_supported", "relabel_by_size", "smooth_contacts"]
+
+_FOOTPRINT_SLACK = 0.005  # m: a point may lie this far outside the support's footprint ...
+_ON_SUPPORT = 0.8  # ... and this share of the part's points must lie on it
+_MIN_TOUCH = 5  # pixel pairs: parts touching less than this are not neighbours
+_MAX_ARC_RADIUS = 0.75  # a round footprint's radius is at most this share of its width ...
+_ARC_TOLERANCE = 0.1  # ... and its points within this share of the radius of the circle
+
+
+def relabel_by_size(labels: np.ndarray) -> np.ndarray:
+    """Labels renumbered 0..K-1 by decreasing pixel count (-1 kept)."""
+    n = int(labels.max(initial=-1)) + 1
+    if n == 0:
+        return labels
+    size = np.bincount(labels[labels >= 0], minlength=n)
+    order = np.flatnonzero(size)[np.argsort(-size[np.flatnonzero(size)], kind="stable")]
+    remap = np.full(n + 1, -1, np.int32)
+    remap[order] = np.arange(len(order), dtype=np.int32)
+    return remap[labels]  # -1 indexes the last entry, which stays -1
+
+
+def smooth_contacts(labels: np.ndarray, depth: np.ndarray, max_step: float) -> np.ndarray:
+    """(K, K) counts of 4-neighbour pixel pairs of two parts whose depths differ by less than
+    ``max_step`` metres: where the parts meet on one surface, not across an occluding edge."""
+    n = int(labels.max(initial=-1)) + 1
+    out = np.zeros((n, n), np.int64)
+    for a, b, za, zb in (
+        (labels[:, :-1], labels[:, 1:], depth[:, :-1], depth[:, 1:]),
+        (labels[:-1], labels[1:], depth[:-1], depth[1:]),
+    ):
+        sel = (a != b) & (a >= 0) & (b >= 0) & (np.abs(za - zb) < max_step)
+        np.add.at(out, (a[sel], b[sel]), 1)
+    return out + out.T
+
+
+def _is_narrow(foot: np.ndarray, height: np.ndarray, narrow: float) -> bool:
+    """Too small to be an object of its own: narrower than ``narrow`` (m) across, or a thin
+    piece (under 0.6 of that thick) at most twice that long and high (a mug's handle)."""
+    step = max(1, len(foot) // 2000)
+    f = foot[::step] - foot[::step].mean(axis=0)
+    _, _, vt = np.linalg.svd(f, full_matrices=False)
+    a = f @ vt.T
+    major, minor = np.percentile(a, 98, axis=0) - np.percentile(a, 2, axis=0)
+    tall = float(np.percentile(height[::step], 98) - np.percentile(height[::step], 2))
+    return bool(major < narrow or (minor < 0.6 * narrow and max(major, tall) < 2 * narrow))
+
+
+def _within_circle(inner: np.ndarray, outer: np.ndarray) -> bool:
+    """Most of the footprint ``inner`` lies within the circle of the round footprint ``outer``."""
+    circle = _round_footprint(outer)
+    if circle is None:
+        return False
+    # The disc reaches the outermost points: a bowl's inside covers the whole disc, not an arc.
+    sub = outer[:: max(1, len(outer) // 2000)]
+    reach = np.percentile(np.linalg.norm(sub - circle[0], axis=1), 95)
+    d = np.linalg.norm(inner[:: max(1, len(inner) // 500)] - circle[0], axis=1)
+    return bool(np.mean(d <= max(circle[1], reach) + 2 * _FOOTPRINT_SLACK) >= _ON_SUPPORT)
+
+
+def _round_footprint(foot: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Circle ``(centre (2,), radius)`` through a footprint (N, 2) that is an arc of one, else
+    None (a least-squares circle whose points stray from it, or wider than the arc allows)."""
+    f = np.asarray(foot, np.float64)[:: max(1, len(foot) // 2000)]
+    if len(f) < 10:
+        return None
+    A = np.column_stack([f, np.ones(len(f))])
+    sol, *_ = np.linalg.lstsq(A, -(f**2).sum(axis=1), rcond=None)
+    c = -0.5 * sol[:2]
+    r2 = float(c @ c - sol[2])
+    if not r2 > 0:
+        return None
+    r = math.sqrt(r2)
+    extent = float(np.max(np.percentile(f, 98, axis=0) - np.percentile(f, 2, axis=0)))
+    off = np.abs(np.linalg.norm(f - c, axis=1) - r)
+    if r > _MAX_ARC_RADIUS * extent or float(np.median(off)) > _ARC_TOLERANCE * r:
+        return None
+    return c, r
+
+
+def _hull_distance(hull: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Signed distance (m, > 0 inside) of points (N, 2) to the lines of a convex polygon (K, 2):
+    the smallest over its edges, exact inside and a lower bound of the gap outside."""
+    e = np.roll(hull, -1, axis=0) - hull
+    length = np.maximum(np.linalg.norm(e, axis=1), 1e-12)
+    # Cross products against each edge; their sign says the side, whatever the winding.
+    cross = (e[None, :, 0] * (pts[:, None, 1] - hull[None, :, 1])
+             - e[None, :, 1] * (pts[:, None, 0] - hull[None, :, 0])) / length  # fmt: skip
+    area2 = float(
+        np.sum(hull[:, 0] * np.roll(hull[:, 1], -1) - np.roll(hull[:, 0], -1) * hull[:, 1])
+    )
+    return np.min(cross if area2 >= 0 else -cross, axis=1)
+
+
+def _table_basis(normal) -> np.ndarray:
+    """(3, 2) orthonormal directions on the table."""
+    nrm = np.asarray(normal, np.float64)
+    u = np.cross(nrm, [1.0, 0.0, 0.0] if abs(nrm[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(nrm, u)], 1)
+
+
+def join_supported(
+    labels: np.ndarray,
+    points: np.ndarray,
+    height: np.ndarray,
+    normal: np.ndarray,
+    config: SegmentationConfig,
+    depth: np.ndarray | None = None,
+) -> np.ndarray:
+    """Joins the parts of one object that creases cut apart (see the module docstring).
+
+    Args:
+        labels: (H, W) int32 parts, -1 none.
+        points: (H, W, 3) world points of the pixels, metres (used where ``labels >= 0``).
+        height: (H, W) height above the table, metres.
+        normal: (3,) table normal.
+        config: ``support_height``, ``support_narrow``, ``depth_jump``.
+        depth: (H, W) depth, metres: a narrow part joins only a part it meets without a depth
+            step (under half ``depth_jump``); None = any part it touches.
+
+    Returns:
+        (H, W) int32 labels, renumbered by decreasing size.
+    """
+    import cv2
+
+    n = int(labels.max(initial=-1)) + 1
+    if n < 2:
+        return labels
+    z = depth if depth is not None else np.zeros(labels.shape, np.float32)
+    contact = smooth_contacts(labels, z, 0.5 * config.depth_jump if depth is not None else np.inf)
+    touch = smooth_contacts(labels, z, np.inf)  # any contact, across depth steps too
+    basis = _table_basis(normal)
+    flat = labels.ravel()
+    order = np.argsort(flat, kind="stable")
+    starts = np.searchsorted(flat[order], np.arange(n + 1))
+    foot_all = points.reshape(-1, 3) @ basis
+    hgt = height.ravel()
+    # Per part: pixel indices, footprint (N, 2) and lowest height (5th percentile).
+    parts = {}
+    for k in range(n):
+        idx = order[starts[k] : starts[k + 1]]
+        if len(idx):
+            parts[k] = [idx, foot_all[idx], float(np.percentile(hgt[idx], 5))]
+    owner = np.arange(n)
+    # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
+    for k in sorted(parts, key=lambda k: -parts[k][2]):
+        idx, own, low = parts[k]
+        narrow = _is_narrow(own, hgt[idx], config.support_narrow)
+        own = own[:: max(1, len(own) // 500)]
+        best, nearest = None, None
+        for j in np.argsort(-touch[k], kind="stable"):
+            if touch[k, j] < _MIN_TOUCH:
+                break
+            if j == k or j not in parts:
+                continue
+            foot = parts[j][1]
+            if narrow and contact[k, j] > 0:
+                gap = float(np.median(np.linalg.norm(foot - own.mean(axis=0), axis=1)))
+                if nearest is None or gap < nearest[1]:
+                    nearest = (j, gap)
+            # Floating parts may stand on a lower part; any part may lie within a larger one's
+            # footprint (a band of an object's side cut off by a crease across it).
+            if parts[j][2] >= low if low > config.support_height else len(foot) <= len(idx):
+                continue
+            sub = np.ascontiguousarray(foot[:: max(1, len(foot) // 4000)], np.float32)
+            hull = cv2.convexHull(sub)[:, 0].astype(np.float64)
+            if np.mean(_hull_distance(hull, own) >= -_FOOTPRINT_SLACK) >= _ON_SUPPORT:
+                best = j
+                break
+            # A round part's footprint is an arc: what lies within its circle is inside it (the
+            # inside of a mug or a bowl behind the front of its wall, or the front of the wall
+            # before the inside whose circle holds it).
+            if _within_circle(own, foot) or _within_circle(foot, own):
+                best = j
+                break
+        # A narrow part without a part to stand on goes to the part it meets without a depth
+        # step whose footprint is nearest to its own (the shoulder a neck stands on).
+        best = best if best is not None or nearest is None else nearest[0]
+        if best is not None:
+            owner[owner == k] = best
+            parts[best][0] = np.concatenate([parts[best][0], idx])
+            parts[best][1] = np.concatenate([parts[best][1], parts[k][1]])
+            for mat in (contact, touch):
+                mat[best] += mat[k]
+                mat[:, best] += mat[:, k]
+                mat[k], mat[:, k] = 0, 0
+            del parts[k]
+    remap = np.append(owner, -1).astype(np.int32)
+    return relabel_by_size(remap[labels])
