@@ -360,6 +360,7 @@ CASES = [
     ("segmentation-crease-weak", lambda d: perception.SegmentationConfig(crease_weak=1.5), ConfigError, ["crease_weak", "(0, 1]"]),
     ("segmentation-crease-scale", lambda d: perception.SegmentationConfig(crease_scale_px=0), ConfigError, ["crease_scale_px", ">= 1"]),
     ("segment-no-table-without-pose", lambda d: perception.segment(np.random.default_rng(0).uniform(0.5, 2.0, (CAM.height, CAM.width)), symjax.Camera.create(CAM.K, np.eye(4), CAM.width, CAM.height)), DegenerateGeometryError, ["no table", "min_table_fraction"]),
+    ("segment-rgb-shape", lambda d: perception.segment(np.ones((CAM.height, CAM.width)), CAM, rgb=np.zeros((4, 4, 3), np.uint8)), ShapeError, ["rgb", "(H, W, 3)", "(4, 4, 3)"]),
     ("clutter-kind", lambda d: clutter_scene(("box", "teapot")), InvalidInputError, ["'teapot'", "box", "can", "bottle"]),
     ("clutter-arrangement", lambda d: clutter_scene(("box", "can"), arrangement="pile"), InvalidInputError, ["'pile'", "side_by_side", "front_back", "cluster"]),
     ("segment-no-camera", lambda d: perception.segment(VIEW.depth), InvalidInputError, ["camera"]),

@@ -194,3 +194,21 @@ def test_hollow_objects_stay_whole(robot, seed, tmp_path_factory):
     res = segment(sc.depth, sc.camera, CLUTTER)
     assert len(res) == len(sc.names), sc.names
     np.testing.assert_array_less(plain - 0.1, _match_ious(truth, res))
+
+
+def test_colour_image_is_a_further_cue():
+    # Two bottles side by side behind two boxes, whose shoulders meet in too shallow a crease:
+    # depth alone joins them, their colours tell them apart. The cans' and bottles' label bands
+    # (colour edges on convex faces) cut nothing.
+    kinds = ("box", "bottle", "box", "box", "can", "bottle", "bottle")
+    sc = clutter_scene(kinds, seed=24)
+    assert sc.rgb.shape == sc.depth.shape + (3,) and sc.rgb.dtype == np.uint8
+    assert len(segment(sc.depth, sc.camera, CLUTTER)) == 6
+    res = segment(sc.depth, sc.camera, CLUTTER, rgb=sc.rgb)
+    assert len(res) == 7
+    assert np.sort(_match_ious(sc.truth, res))[1] >= 0.85  # all but the hidden bottle's neck
+    # A DepthFrame's own colour image is used.
+    from symjax.io import DepthFrame
+
+    frame = DepthFrame(depth=sc.depth, camera=sc.camera, rgb=sc.rgb)
+    np.testing.assert_array_equal(segment(frame, config=CLUTTER).labels, res.labels)

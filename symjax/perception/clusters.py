@@ -38,6 +38,7 @@ def image_clusters(
     candidate: np.ndarray,
     config: SegmentationConfig,
     crease: np.ndarray | None = None,
+    colour: np.ndarray | None = None,
 ) -> np.ndarray:
     """Labels object pixels by connectivity on the image grid.
 
@@ -56,6 +57,8 @@ def image_clusters(
             ``grow_height``, below ``max_height``, inside the workspace).
         config: Settings.
         crease: (H, W) bool crease pixels to cut too; None = depth steps only.
+        colour: (H, W, 3) CIELAB image: cut pixels prefer the neighbour of their colour
+            (``colour_weight``); None = depth alone.
 
     Returns:
         int32 (H, W) labels: 0..K-1 objects, ordered by size (largest first); -1 elsewhere.
@@ -83,30 +86,42 @@ def image_clusters(
     # far side of an occluding edge joins its own surface (nearer in depth than the occluder), and
     # faces seen at grazing angles, whose every pixel steps by more than the jump, grow back
     # from the face's continuous part.
+    # A one-pixel frame of unlabelled pixels: every neighbour index is then inside the arrays.
+    Wp = labels.shape[1] + 2
+    lab = np.pad(labels, 1, constant_values=-1).reshape(-1)
+    dep = np.pad(depth, 1).reshape(-1)
+    lim = np.pad(thr, 1).reshape(-1)
+    col = None if colour is None else np.pad(colour, ((1, 1), (1, 1), (0, 0))).reshape(-1, 3)
     r, c = np.nonzero(candidate & far_edge)
-    H, W = depth.shape
+    idx = (r + 1) * Wp + (c + 1)
+    offsets = np.array([dr * Wp + dc for dr, dc in _N8])
     # With creases, a cut band lies on one surface next to another at a small step: the band
     # is grown from the side it continues first (small depth differences before larger ones),
     # so that a nearer object does not take over the far side of its occluding edge.
     stages = (0.003, 0.006, 0.012, np.inf) if crease is not None else (None,)
     for limit in stages:
-        while len(r) and len(order):
-            best_dz = np.full(len(r), np.inf, np.float32)
-            best_lab = np.full(len(r), -1, np.int32)
-            z = depth[r, c]
-            cap = np.inf if limit is None else np.minimum(thr[r, c], limit)
-            for dr, dc in _N8:
-                rr, cc = np.clip(r + dr, 0, H - 1), np.clip(c + dc, 0, W - 1)
-                nl = labels[rr, cc]
-                dz = np.abs(depth[rr, cc] - z)
-                better = (nl >= 0) & (dz < best_dz) & (dz <= cap)
-                best_dz[better] = dz[better]
-                best_lab[better] = nl[better]
-            done = best_lab >= 0
+        while len(idx) and len(order):
+            # Only pixels next to a labelled one can take a label in this pass.
+            front = np.flatnonzero((lab[idx[:, None] + offsets[None, :]] >= 0).any(axis=1))
+            fi = idx[front]
+            nb = fi[:, None] + offsets[None, :]
+            nl = lab[nb]
+            dz = np.abs(dep[nb] - dep[fi][:, None])
+            cost = dz
+            if col is not None:
+                cost = dz + config.colour_weight * np.abs(col[nb] - col[fi][:, None]).sum(-1)
+            ok = nl >= 0
+            if limit is not None:
+                ok &= dz <= np.minimum(lim[fi], limit)[:, None]
+            cost = np.where(ok, cost, np.inf)
+            pick = np.argmin(cost, axis=1)
+            rows = np.arange(len(fi))
+            done = ok[rows, pick]
             if not done.any():
                 break
-            labels[r[done], c[done]] = best_lab[done]
-            r, c = r[~done], c[~done]
+            lab[fi[done]] = nl[rows, pick][done]
+            idx = np.delete(idx, front[done])
+    labels = lab.reshape(labels.shape[0] + 2, Wp)[1:-1, 1:-1]
     return labels
 
 

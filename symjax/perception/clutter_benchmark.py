@@ -80,14 +80,14 @@ def match_ious(truth: np.ndarray, result) -> tuple[np.ndarray, np.ndarray]:
     return out, match
 
 
-def score_scenes(scenes, config: SegmentationConfig) -> dict[str, dict]:
+def score_scenes(scenes, config: SegmentationConfig, colour: bool = False) -> dict[str, dict]:
     """Per group: scenes, share with the object count right, share with every IoU >= 0.85, and
-    the share of objects with IoU >= 0.85."""
+    the share of objects with IoU >= 0.85; ``colour`` passes each scene's colour image."""
     from symjax.perception.segmentation import segment
 
     acc: dict[str, list] = {}
     for group, sc in scenes:
-        res = segment(sc.depth, sc.camera, config)
+        res = segment(sc.depth, sc.camera, config, rgb=sc.rgb if colour else None)
         ious, _ = match_ious(sc.truth, res)
         a = acc.setdefault(group, [0, 0, 0, []])
         right = len(res) == len(ious)

@@ -52,6 +52,10 @@ class SegmentationConfig:
         crease_scale_px: Half span (pixels) of the concavity's second difference.
         crease_smooth_px: Diameter (pixels) of the bilateral filter before it; 0 = none.
         crease_smooth_depth: Depth difference (m) that filter still averages across.
+        colour_concavity: With a colour image, colour edges are creases where the concavity
+            exceeds this (touching objects at a shallow angle; not labels on convex faces).
+        colour_weight: With a colour image, cut pixels go to the neighbour that differs least in
+            depth plus this many metres per CIELAB unit of colour difference (summed over L, a, b).
         support_height: A part split off by creases with 80 % of its footprint on an adjacent
             part's footprint is joined to that part: a lower one if its own lowest points are
             this high (m) above the table (a bottle's neck), else a larger one.
@@ -98,6 +102,8 @@ class SegmentationConfig:
     crease_scale_px: int = 4
     crease_smooth_px: int = 9
     crease_smooth_depth: float = 0.01
+    colour_concavity: float = 0.0
+    colour_weight: float = 0.0005
     support_height: float = 0.02
     support_narrow: float = 0.04
     cluster_tolerance: float = 0.012

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["concavity", "crease_concavity", "crease_mask"]
+__all__ = ["colour_creases", "concavity", "crease_concavity", "crease_mask", "lab_image"]
 
 # Image directions (drow, dcol) the second difference is taken along; diagonals span sqrt(2).
 _DIRECTIONS = ((0, 1), (1, 0), (1, 1), (1, -1))
@@ -106,3 +106,29 @@ def crease_mask(k: np.ndarray, config) -> np.ndarray:
     strong[0] = False
     crease = strong[lab].astype(np.uint8)
     return cv2.dilate(crease, np.ones((3, 3), np.uint8)) > 0
+
+
+def lab_image(rgb: np.ndarray) -> np.ndarray:
+    """CIELAB (H, W, 3) float32 of an RGB uint8 image (L 0-100, a and b about -100..100): a
+    colour difference of 1 is about the smallest one a person sees."""
+    import cv2
+
+    return cv2.cvtColor(np.asarray(rgb, np.float32) / 255.0, cv2.COLOR_RGB2Lab)
+
+
+def colour_creases(lab: np.ndarray, k: np.ndarray, config) -> np.ndarray:
+    """Colour edges (bool (H, W)) where the surface bends concavely, however little.
+
+    Two objects that touch at a shallow angle leave a weak crease but usually a colour edge;
+    a label's edge on a can lies on a convex surface and is not cut (``k <= colour_concavity``).
+    Canny on each channel of the blurred CIELAB image, widened a pixel.
+    """
+    import cv2
+
+    u8 = np.clip(cv2.GaussianBlur(lab, (5, 5), 1.2) * np.float32(2.0) + 128, 0, 255)
+    u8[..., 0] = np.clip(lab[..., 0] * 2.55, 0, 255)
+    edges = np.zeros(k.shape, bool)
+    for c in range(3):
+        edges |= cv2.Canny(np.ascontiguousarray(u8[..., c]).astype(np.uint8), 20, 40) > 0
+    edges &= k > config.colour_concavity
+    return cv2.dilate(edges.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0

@@ -19,10 +19,11 @@ from symjax.geometry import pixel_rays
 from symjax.observation import Observation, fill_mask
 from symjax.perception.clusters import cloud_clusters, grid_outliers, image_clusters
 from symjax.perception.config import SegmentationConfig
-from symjax.perception.creases import crease_concavity, crease_mask
+from symjax.perception.creases import colour_creases, crease_concavity, crease_mask, lab_image
 from symjax.perception.object_info import ObjectInfo, describe_objects, occluder_depth
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
 from symjax.perception.support import join_supported
+from symjax.perception.table_frame import in_table_frame
 from symjax.table import TablePlane
 
 __all__ = ["ObjectInfo", "TableScene", "segment"]
@@ -126,7 +127,9 @@ def _fill_holes(depth: np.ndarray, valid: np.ndarray, passes: int) -> np.ndarray
     return np.where(filled < big, filled, np.float32(0.0))
 
 
-def _segment_depth(depth: np.ndarray, camera: Camera, cfg: SegmentationConfig) -> TableScene:
+def _segment_depth(
+    depth: np.ndarray, camera: Camera, cfg: SegmentationConfig, rgb=None
+) -> TableScene:
     depth = np.asarray(depth, dtype=np.float32)
     hw = (camera.height, camera.width)
     if depth.shape != hw:
@@ -172,7 +175,10 @@ def _segment_depth(depth: np.ndarray, camera: Camera, cfg: SegmentationConfig) -
         if cfg.crease_threshold is not None:
             kappa = crease_concavity(conn[sl], float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])), cfg)
             crease = crease_mask(kappa, cfg)
-        lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease=crease)
+        colour = None if rgb is None or kappa is None else lab_image(rgb[sl])
+        if colour is not None:
+            crease |= colour_creases(colour, kappa, cfg)
+        lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease=crease, colour=colour)
         if kappa is not None and lab.max() > 0:
             pts = (rays[sl] * conn[sl][..., None]) @ R.T + t
             lab = join_supported(lab, pts, height[sl], n, cfg, depth=conn[sl])
@@ -215,35 +221,6 @@ def _segment_depth(depth: np.ndarray, camera: Camera, cfg: SegmentationConfig) -
         for o, i in zip(objects, infos, strict=True)
     ]
     return TableScene(table, tuple(objects), infos, labels, on_table, notes)
-
-
-def _in_table_frame(scene: TableScene, camera: Camera) -> TableScene:
-    """The scene re-expressed in the table frame (see :attr:`TableScene.frame`)."""
-    z = np.asarray(scene.table.normal, np.float64)
-    cam = np.asarray(camera.T_world_cam, np.float64)
-    x = cam[:3, 2] - (cam[:3, 2] @ z) * z  # the optical axis on the table
-    if np.linalg.norm(x) < 1e-6:  # looking straight down
-        x = np.cross(z, [0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0])
-    x /= np.linalg.norm(x)
-    if scene.objects:
-        c = np.mean([i.centroid for i in scene.info], axis=0)
-    else:
-        c = cam[:3, 3] + cam[:3, 2]  # a metre along the optical axis
-    origin = c - (c @ z + float(scene.table.offset)) * z
-    R = np.stack([x, np.cross(z, x), z])  # rows: the new axes in the input frame
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, -R @ origin
-    infos = tuple(
-        dataclasses.replace(i, centroid=R @ np.asarray(i.centroid) + T[:3, 3]) for i in scene.info
-    )
-    return dataclasses.replace(
-        scene,
-        table=scene.table.transformed(T),
-        objects=tuple(o.transformed(T) for o in scene.objects),
-        info=infos,
-        frame="table",
-        T_world_input=T,
-    )
 
 
 def _segment_cloud(
@@ -299,14 +276,20 @@ def _segment_cloud(
     return TableScene(table, tuple(objects), infos, labels, table_mask, notes)
 
 
-def _framed(scene: TableScene, camera: Camera) -> TableScene:
-    if np.allclose(np.asarray(camera.T_world_cam, np.float64), np.eye(4)):
-        return _in_table_frame(scene, camera)
-    return scene
+def _rgb(rgb, depth) -> np.ndarray | None:
+    if rgb is None:
+        return None
+    img = np.asarray(rgb)
+    if img.shape != np.shape(depth) + (3,):
+        raise ShapeError(f"rgb must be (H, W, 3) like the depth {np.shape(depth)}, got {img.shape}")
+    return img.astype(np.uint8) if img.dtype != np.uint8 else img
 
 
 def segment(
-    data: Any, camera: Camera | None = None, config: SegmentationConfig | None = None
+    data: Any,
+    camera: Camera | None = None,
+    config: SegmentationConfig | None = None,
+    rgb: Any = None,
 ) -> TableScene:
     """Finds the table and the object hypotheses on it.
 
@@ -316,6 +299,8 @@ def segment(
         camera: The camera; required for a bare depth image, optional for a cloud that has a
             viewpoint (each object then gets a virtual camera at the viewpoint looking at it).
         config: Settings; defaults to :class:`SegmentationConfig`.
+        rgb: Colour image (H, W, 3) uint8 of a depth image (a :class:`DepthFrame`'s own by
+            default): with the crease cut on, its edges are a further cue where objects meet.
 
     Returns:
         A :class:`TableScene`; an empty table gives no objects and a warning, objects cut by the
@@ -338,8 +323,14 @@ def segment(
     if camera is not None and not isinstance(camera, Camera):
         raise InvalidInputError(f"camera must be a symjax.Camera, got {type(camera).__name__}")
     if isinstance(data, DepthFrame):
-        return _framed(
-            _segment_depth(data.depth, camera or data.camera, config), camera or data.camera
+        return in_table_frame(
+            _segment_depth(
+                data.depth,
+                camera or data.camera,
+                config,
+                _rgb(rgb if rgb is not None else data.rgb, data.depth),
+            ),
+            camera or data.camera,
         )
     if isinstance(data, PointCloud):
         return _segment_cloud(data.points, camera, data.viewpoint, config)
@@ -352,7 +343,7 @@ def segment(
             " second argument: segment(depth, camera))"
         ) from None
     if camera is not None and arr.shape == (camera.height, camera.width):
-        return _framed(_segment_depth(arr, camera, config), camera)
+        return in_table_frame(_segment_depth(arr, camera, config, _rgb(rgb, arr)), camera)
     if arr.ndim == 2 and arr.shape[1] == 3:
         return _segment_cloud(arr, camera, None, config)
     if camera is None and arr.ndim == 2:

@@ -65,16 +65,23 @@ def _is_narrow(foot: np.ndarray, height: np.ndarray, narrow: float) -> bool:
     return bool(major < narrow or (minor < 0.6 * narrow and max(major, tall) < 2 * narrow))
 
 
-def _within_circle(inner: np.ndarray, outer: np.ndarray) -> bool:
-    """Most of the footprint ``inner`` lies within the circle of the round footprint ``outer``."""
-    circle = _round_footprint(outer)
+def _disc(foot: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """``(centre, radius)`` of the disc a round footprint covers, or None when not round: the
+    arc's circle, reaching out to the outermost points (a bowl's inside covers the whole disc)."""
+    circle = _round_footprint(foot)
     if circle is None:
+        return None
+    sub = foot[:: max(1, len(foot) // 2000)]
+    reach = float(np.percentile(np.linalg.norm(sub - circle[0], axis=1), 95))
+    return circle[0], max(circle[1], reach)
+
+
+def _within(inner: np.ndarray, disc) -> bool:
+    """Most of the footprint ``inner`` lies within ``disc`` (see :func:`_disc`)."""
+    if disc is None:
         return False
-    # The disc reaches the outermost points: a bowl's inside covers the whole disc, not an arc.
-    sub = outer[:: max(1, len(outer) // 2000)]
-    reach = np.percentile(np.linalg.norm(sub - circle[0], axis=1), 95)
-    d = np.linalg.norm(inner[:: max(1, len(inner) // 500)] - circle[0], axis=1)
-    return bool(np.mean(d <= max(circle[1], reach) + 2 * _FOOTPRINT_SLACK) >= _ON_SUPPORT)
+    d = np.linalg.norm(inner[:: max(1, len(inner) // 500)] - disc[0], axis=1)
+    return bool(np.mean(d <= disc[1] + 2 * _FOOTPRINT_SLACK) >= _ON_SUPPORT)
 
 
 def _round_footprint(foot: np.ndarray) -> tuple[np.ndarray, float] | None:
@@ -162,6 +169,7 @@ def join_supported(
         if len(idx):
             parts[k] = [idx, foot_all[idx], float(np.percentile(hgt[idx], 5))]
     owner = np.arange(n)
+    discs: dict = {}  # part -> its round footprint's disc (or None), computed when first needed
     # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
     for k in sorted(parts, key=lambda k: -parts[k][2]):
         idx, own, low = parts[k]
@@ -190,7 +198,11 @@ def join_supported(
             # A round part's footprint is an arc: what lies within its circle is inside it (the
             # inside of a mug or a bowl behind the front of its wall, or the front of the wall
             # before the inside whose circle holds it).
-            if _within_circle(own, foot) or _within_circle(foot, own):
+            if j not in discs:
+                discs[j] = _disc(foot)
+            if k not in discs:
+                discs[k] = _disc(parts[k][1])
+            if _within(own, discs[j]) or _within(foot, discs[k]):
                 best = j
                 break
         # A narrow part without a part to stand on goes to the part it meets without a depth
@@ -200,6 +212,7 @@ def join_supported(
             owner[owner == k] = best
             parts[best][0] = np.concatenate([parts[best][0], idx])
             parts[best][1] = np.concatenate([parts[best][1], parts[k][1]])
+            discs.pop(best, None)
             for mat in (contact, touch):
                 mat[best] += mat[k]
                 mat[:, best] += mat[:, k]

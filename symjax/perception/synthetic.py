@@ -30,6 +30,7 @@ class SyntheticScene:
             (:func:`clutter_scene`; empty for :func:`tabletop_scene`).
         owner: The object each primitive belongs to (:func:`clutter_scene`; a bottle is two).
         recipe: The :func:`clutter_scene` arguments that rebuild it.
+        rgb: (H, W, 3) uint8 colour image (:func:`clutter_scene`; None otherwise).
     """
 
     depth: np.ndarray
@@ -40,6 +41,7 @@ class SyntheticScene:
     contacts: tuple[tuple[int, int], ...] = ()
     owner: tuple[int, ...] = ()
     recipe: dict = dataclasses.field(default_factory=dict)
+    rgb: np.ndarray | None = None
 
 
 def _yaw(a: float) -> tuple[float, float, float, float]:
@@ -192,6 +194,32 @@ def _touching_place(placed, obj, partner: int, u: np.ndarray) -> np.ndarray:
     return c0 + hi * u
 
 
+def _colour_image(depth, truth, normals, camera: Camera, objs, seed: int) -> np.ndarray:
+    """A colour image: one colour per object, a label band of another round cans and bottles
+    (texture edges on a convex surface), a grey table, Lambertian shading from the camera and
+    sensor noise; drawn from its own stream so that the depth noise stays as without colour."""
+    from symjax.geometry import pixel_rays
+
+    rng = np.random.default_rng([seed, 7])
+    n = len(objs)
+    base = rng.uniform(40, 230, (n + 1, 3))
+    band = rng.uniform(40, 230, (n + 1, 3))
+    lo = rng.uniform(0.02, 0.05, n + 1)
+    hi = lo + rng.uniform(0.02, 0.04, n + 1)
+    base[n] = band[n] = 150.0  # the table (index -1)
+    T = np.asarray(camera.T_world_cam, np.float64)
+    rays = pixel_rays(np.asarray(camera.K, np.float64), camera.height, camera.width) @ T[:3, :3].T
+    z = depth * rays[..., 2] + T[2, 3]  # world height of each hit
+    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
+    shade = 0.35 + 0.65 * np.abs(np.sum(rays * normals, axis=-1))
+    k = np.where(truth >= 0, truth, n)
+    round_ = np.array([o["kind"] != "box" for o in objs] + [False])
+    on_band = round_[k] & (z > lo[k]) & (z < hi[k])
+    colour = np.where(on_band[..., None], band[k], base[k]) * shade[..., None]
+    colour += rng.normal(0, 3.0, colour.shape)
+    return np.where((depth > 0)[..., None], np.clip(colour, 0, 255), 0).astype(np.uint8)
+
+
 def clutter_scene(
     kinds,
     seed: int = 0,
@@ -228,7 +256,7 @@ def clutter_scene(
 
     Returns:
         A :class:`SyntheticScene`; ``truth`` labels objects in placement order, ``contacts``
-        holds the touching pairs.
+        holds the touching pairs, ``rgb`` a colour image (see :func:`_colour_image`).
     """
     from symjax.datasets.raycast import render_depth, scene_model
     from symjax.datasets.stereo import StereoNoise, simulate_stereo
@@ -287,6 +315,7 @@ def clutter_scene(
     lut = np.array([-1, -1] + [owner[i] for i in shown], np.int32)  # miss, table, primitives
     truth = lut[gid + 1]
     noise = StereoNoise() if noise is None else noise
+    rgb = _colour_image(depth, truth, normals, cam, [o for _, o in placed], seed)
     depth, _ = simulate_stereo(depth, truth >= 0, normals, cam, noise, 0.0915, rng)
     fps = [_footprint(o, c) for c, o in placed]
     contacts = tuple(
@@ -301,5 +330,5 @@ def clutter_scene(
         table_height=table_height,
     )  # fmt: skip
     return SyntheticScene(
-        depth, cam, truth, tuple(prims), table_height, contacts, tuple(owner), recipe
+        depth, cam, truth, tuple(prims), table_height, contacts, tuple(owner), recipe, rgb
     )
