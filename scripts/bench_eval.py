@@ -124,18 +124,12 @@ def _meshes():
 def main(argv=None) -> int:
     import trimesh
 
-    from symjax._atomic import atomic_write_json
+    from symjax._timing import JsonRows
     from symjax.metrics import mesh_deviation, sample_surface, surface_distance
 
     args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_eval.py", __doc__)
     meta = {"machine": platform.machine(), "cpus": os.cpu_count()}
-    rows: list[dict] = []
-
-    def emit(row):
-        row = {**row, **meta}
-        print(json.dumps(row), flush=True)
-        rows.append(row)
-        atomic_write_json(args.out, rows)
+    emit = JsonRows(args.out, meta).emit
 
     for name, ref_mesh, mesh in _meshes():
         load0 = [round(x, 2) for x in os.getloadavg()]

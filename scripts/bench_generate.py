@@ -18,7 +18,6 @@ Usage: ``python scripts/bench_generate.py [--hands sdh barrett parallel_jaw] [--
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import platform
 import sys
@@ -58,7 +57,7 @@ def main(argv=None) -> int:
     import numpy as np
 
     from symjax import configs, grasp, hands
-    from symjax._atomic import atomic_write_json
+    from symjax._timing import JsonRows
     from symjax.data import DatasetSpec, GenerateConfig, generate_dataset, load_grasps
     from symjax.data.candidate_mix import mixed_candidates, shard_rng_seed
     from symjax.data.objects import load_entry, resolve_objects
@@ -69,13 +68,7 @@ def main(argv=None) -> int:
     preset = configs.load(args.config)
     meta = {"machine": platform.machine(), "cpus": os.cpu_count(),
             "jax_backend": jax.default_backend(), "preset": args.config}  # fmt: skip
-    rows: list[dict] = []
-
-    def emit(row):
-        row = {**row, **meta}
-        print(json.dumps(row), flush=True)
-        rows.append(row)
-        atomic_write_json(args.out, rows)
+    emit = JsonRows(args.out, meta).emit
 
     ex = dataclasses.replace(preset.execution, progress=False)
     with tempfile.TemporaryDirectory() as tmp:

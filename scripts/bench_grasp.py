@@ -41,7 +41,7 @@ import numpy as np
 import trimesh
 
 from symjax import grasp, hands
-from symjax._atomic import atomic_write_json
+from symjax._timing import JsonRows
 from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.decompose import DecomposeConfig, decompose
 from symjax.execution import ExecutionConfig
@@ -135,13 +135,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     hulls = decompose((v, f), DecomposeConfig(max_hulls=8, max_vertices=32))
     decompose_s = time.perf_counter() - t0
-    rows = []
-
-    def emit(row):
-        row = {**row, **meta}
-        print(json.dumps(row), flush=True)
-        rows.append(row)
-        atomic_write_json(args.out, rows)
+    emit = JsonRows(args.out, meta).emit
 
     for hand_name in args.hands:
         hand = hands.load(hand_name)
@@ -215,7 +209,7 @@ def bench_gpu(args: Args) -> int:
         print(json.dumps({"case": "gpu", "backend": "mjx_warp", "skipped": skip}))
     v, f = mug()
     hulls = decompose((v, f), DecomposeConfig(max_hulls=8, max_vertices=32))
-    rows: list[dict] = []
+    results = JsonRows(ROOT / "bench" / "results" / "grasp_gpu.json")
     for hand_name in args.hands:
         hand = hands.load(hand_name)
         scene = grasp.build_scene(hulls, hand, args.simulation)
@@ -243,9 +237,7 @@ def bench_gpu(args: Args) -> int:
                        "success_rate": float(out.success.mean()),
                        "diverged": int(out.diverged.sum()),
                        "success_agreement_with_mujoco_512": agree, **meta}  # fmt: skip
-                print(json.dumps(row), flush=True)
-                rows.append(row)
-                atomic_write_json(ROOT / "bench" / "results" / "grasp_gpu.json", rows)
+                results.emit(row)
     print(json.dumps({"case": "gpu_total", "seconds": round(time.perf_counter() - t_start, 1)}))
     return 0
 

@@ -47,19 +47,12 @@ def _timed(fn, repeats: int) -> list[float]:
 
 
 def _iou_ok(scene, result) -> tuple[int, float]:
-    from scipy.optimize import linear_sum_assignment
+    """Objects found and the smallest IoU of a true object with its match (0 if unmatched)."""
+    from symjax.perception.clutter_benchmark import match_ious
 
-    n = int(scene.truth.max()) + 1
-    if n == 0 or not len(result):
-        return len(result), 1.0 if n == len(result) else 0.0
-    iou = np.zeros((n, len(result)))
-    for i in range(n):
-        t = scene.truth == i
-        for j, o in enumerate(result.objects):
-            m = np.asarray(o.mask)
-            iou[i, j] = (t & m).sum() / max((t | m).sum(), 1)
-    r, c = linear_sum_assignment(-iou)
-    return len(result), float(iou[r, c].min()) if len(r) == n else 0.0
+    if int(scene.truth.max()) < 0 or not len(result):
+        return len(result), 1.0 if int(scene.truth.max()) + 1 == len(result) else 0.0
+    return len(result), float(match_ious(scene.truth, result)[0].min())
 
 
 def _clutter_rows(args, default) -> list[dict]:

@@ -1,13 +1,40 @@
-"""Wall-clock timing shared by the benchmark scripts."""
+"""Wall-clock timing and result rows shared by the benchmark scripts."""
 
 from __future__ import annotations
 
+import json
+import os
 import statistics
 import time
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["median_p95", "median_time"]
+__all__ = ["JsonRows", "median_p95", "median_time"]
+
+
+class JsonRows:
+    """A benchmark's rows: each printed as one JSON line and the whole list rewritten atomically
+    to ``path`` after it, so that a run killed half-way keeps what it measured.
+
+    Args:
+        path: The results file (``bench/results/<name>.json``).
+        meta: Fields added to every row (machine, backend, preset).
+    """
+
+    def __init__(self, path: str | os.PathLike, meta: dict | None = None) -> None:
+        self.path = path
+        self.meta = dict(meta or {})
+        self.rows: list[dict] = []
+
+    def emit(self, row: dict) -> dict:
+        """Prints, keeps and writes ``row`` (with the meta fields); returns it."""
+        from symjax._atomic import atomic_write_json
+
+        row = {**row, **self.meta}
+        print(json.dumps(row), flush=True)
+        self.rows.append(row)
+        atomic_write_json(self.path, self.rows)
+        return row
 
 
 def median_time(fn: Callable[[], Any], repeats: int) -> float:
