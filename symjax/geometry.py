@@ -79,6 +79,15 @@ def backproject(
     return (rays * depth[sel].astype(np.float64)[:, None]) @ T[:3, :3].T + T[:3, 3]
 
 
+def tangent_basis(n: ArrayLike, xp: Any = np) -> tuple[Any, Any]:
+    """Two unit tangents (3,) orthogonal to the unit normal ``n`` (3,) and to each other; ``xp``
+    is numpy or jax.numpy (traceable, for ``vmap``)."""
+    ref = xp.where(xp.abs(n[0]) < 0.9, xp.array([1.0, 0.0, 0.0]), xp.array([0.0, 1.0, 0.0]))
+    t1 = ref - xp.dot(ref, n) * n
+    t1 = t1 / xp.linalg.norm(t1)
+    return t1, xp.cross(n, t1)
+
+
 def reflect(points: ArrayLike, normal: ArrayLike, offset: ArrayLike) -> Any:
     """Mirrors points (..., 3) across the plane ``{x : normal . x = offset}`` (Eq. 2).
 

@@ -28,6 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from symjax import geometry
 from symjax.array_types import ArrayLike
 from symjax.errors import InvalidInputError, ShapeError
 
@@ -48,10 +49,7 @@ _CLOSURE_TOL = 1e-6
 
 def tangent_basis(n: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Two unit tangents orthogonal to unit ``n`` (3,), each shape (3,)."""
-    ref = jnp.where(jnp.abs(n[0]) < 0.9, jnp.array([1.0, 0.0, 0.0]), jnp.array([0.0, 1.0, 0.0]))
-    t1 = ref - jnp.dot(ref, n) * n
-    t1 = t1 / jnp.linalg.norm(t1)
-    return t1, jnp.cross(n, t1)
+    return geometry.tangent_basis(n, xp=jnp)
 
 
 def primitive_wrenches(

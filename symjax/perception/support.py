@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from symjax.geometry import tangent_basis
 from symjax.perception.config import SegmentationConfig
 
 __all__ = ["join_supported", "relabel_by_size", "smooth_contacts"]
@@ -120,10 +121,7 @@ def _hull_distance(hull: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 def _table_basis(normal) -> np.ndarray:
     """(3, 2) orthonormal directions on the table."""
-    nrm = np.asarray(normal, np.float64)
-    u = np.cross(nrm, [1.0, 0.0, 0.0] if abs(nrm[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    return np.stack([u, np.cross(nrm, u)], 1)
+    return np.stack(tangent_basis(np.asarray(normal, np.float64)), 1)
 
 
 def join_supported(
