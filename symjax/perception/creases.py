@@ -67,8 +67,10 @@ def concavity(
         span = scale_px * (1.0 if dr == 0 or dc == 0 else np.sqrt(2.0))
         ok = (a > 0) & (b > 0)
         if np.isfinite(max_step):
-            za = np.where(a > 0, 1.0 / np.maximum(a, 1e-6), 0.0)
-            zb = np.where(b > 0, 1.0 / np.maximum(b, 1e-6), 0.0)
+            za, zb = (
+                _shift(z, -dr * scale_px, -dc * scale_px),
+                _shift(z, dr * scale_px, dc * scale_px),
+            )
             ok &= (np.abs(za - z) < max_step) & (np.abs(zb - z) < max_step)
         # Sagitta z^2 * d2w / 2 over the half span z * span / f.
         k = np.where(ok, (a + b - 2.0 * w) * (z * focal / (2.0 * span)), 0.0)
