@@ -151,6 +151,12 @@ class SegmentationConfig:
             raise ConfigError(f"crease_weak must be in (0, 1], got {self.crease_weak}")
         if not self.crease_max_step > 0:
             raise ConfigError(f"crease_max_step must be > 0 m, got {self.crease_max_step}")
+        if not (math.isfinite(self.colour_weight) and self.colour_weight >= 0):
+            raise ConfigError(
+                f"colour_weight must be >= 0 m per CIELAB unit, got {self.colour_weight}"
+            )
+        if not math.isfinite(self.colour_concavity):
+            raise ConfigError(f"colour_concavity must be finite, got {self.colour_concavity}")
         if self.crease_scale_px < 1 or self.crease_smooth_px < 0 or self.crease_smooth_depth <= 0:
             raise ConfigError(
                 "crease_scale_px must be >= 1 px, crease_smooth_px >= 0 and crease_smooth_depth"
