@@ -37,6 +37,9 @@ class ExecutionConfig:
         simulation_chunk: Candidates per jitted MJX call; larger batches are split.
         simulation_threads: C MuJoCo rollout threads (0 = one per core).
         eval_batch_size: Views per batch through the evaluation's search and Poisson solve.
+        metric_workers: Processes that measure the evaluation's meshes while the next batch is
+            searched and meshed (0: measured in the evaluating process). The results are the
+            same either way.
         progress: Show progress bars.
     """
 
@@ -46,12 +49,13 @@ class ExecutionConfig:
     simulation_chunk: int = 512
     simulation_threads: int = 0
     eval_batch_size: int = 16
+    metric_workers: int = 1
     progress: bool = True
 
     def __post_init__(self) -> None:
         check_fields(self)
         for name in ("symmetry_chunk_views", "symmetry_chunk_hypotheses", "poisson_chunk_views",
-                     "simulation_threads"):  # fmt: skip
+                     "simulation_threads", "metric_workers"):  # fmt: skip
             _int_at_least(name, getattr(self, name), 0)
         _int_at_least("simulation_chunk", self.simulation_chunk, 1)
         _int_at_least("eval_batch_size", self.eval_batch_size, 1)

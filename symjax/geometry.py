@@ -172,6 +172,21 @@ def bucket(n: int, minimum: int = 256) -> int:
     raise AssertionError("unreachable")  # step 8 is 2^(k+1) > n
 
 
+def cloud_bucket(n: int, minimum: int = 1024) -> int:
+    """The padded size of a point cloud for the symmetry search and the Poisson solve.
+
+    Powers of two: eight sizes cover 1,000 to 200,000 points, so a robot meeting objects of every
+    size compiles each kernel a handful of times. The padding costs the search nothing (its
+    kernel stops at the last valid point, :mod:`symjax.symmetry.scoring`) and the Poisson solve
+    little (its grid, not its points, dominates at depth 7).
+
+    Args:
+        n: Points in the cloud.
+        minimum: The smallest size returned.
+    """
+    return max(int(minimum), 1 << (max(int(n), 1) - 1).bit_length())
+
+
 def pad_rows(x: np.ndarray, n: int) -> np.ndarray:
     """Pads the leading axis to ``n`` rows by repeating the last row (a valid, ignored input).
 

@@ -19,7 +19,7 @@ from symjax.errors import (
     InvalidInputError,
     ShapeError,
 )
-from symjax.geometry import bucket
+from symjax.geometry import cloud_bucket
 from symjax.table import TablePlane
 from symjax.validation import check_fields
 
@@ -345,7 +345,7 @@ def _check_in_front(points: np.ndarray, camera: Camera) -> None:
 def stack_observations(observations: Sequence[Observation], n_points: int | None = None):
     """Stacks views into one batched :class:`Observation` (leading axis = view).
 
-    Points are padded to a common bucketed size (:func:`symjax.geometry.bucket`, or
+    Points are padded to a common bucketed size (:func:`symjax.geometry.cloud_bucket`, or
     ``n_points``) and images to the largest height and width (padding is outside the mask with
     no depth).
 
@@ -359,7 +359,7 @@ def stack_observations(observations: Sequence[Observation], n_points: int | None
             raise InvalidInputError(f"item {i} is a {type(o).__name__}, expected an Observation")
         if np.ndim(o.points) != 2:
             raise ShapeError(f"item {i} is already batched (points {np.shape(o.points)})")
-    n = n_points or bucket(max(len(np.asarray(o.points)) for o in observations))
+    n = n_points or cloud_bucket(max(len(np.asarray(o.points)) for o in observations))
     H = max(o.camera.height for o in observations)
     W = max(o.camera.width for o in observations)
     padded = [o.padded(n) for o in observations]

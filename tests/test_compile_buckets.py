@@ -18,7 +18,7 @@ import pytest
 import trimesh
 
 from symjax import grasp
-from symjax.geometry import bucket
+from symjax.geometry import bucket, cloud_bucket
 from symjax.surface import poisson_reconstruct
 from symjax.symmetry import search
 
@@ -62,12 +62,17 @@ def test_bucket_sizes():
     assert len(sizes) == 32  # four per doubling
 
 
+def test_cloud_buckets_are_a_handful():
+    assert [cloud_bucket(n) for n in (1, 1024, 1025, 40_000)] == [1024, 1024, 2048, 65536]
+    assert len({cloud_bucket(n) for n in range(1_000, 200_001)}) == 9  # 1,024 ... 262,144
+
+
 def test_poisson_compiles_once_per_bucket(compiles):
     from symjax.surface import PoissonConfig
 
     # Depth 4 is used by no other test, so the first call compiles here: the count is exact.
     cfg = PoissonConfig(depth=4)
-    assert bucket(2100) == bucket(2500) != bucket(9000)
+    assert cloud_bucket(2100) == cloud_bucket(2500) != cloud_bucket(9000)
     poisson_reconstruct(*_sphere(2100), config=cfg)
     assert compiles["_poisson_jit"] == 1, dict(compiles)
     poisson_reconstruct(*_sphere(2500, seed=1), config=cfg)
@@ -100,7 +105,7 @@ def test_symmetry_search_compiles_once_per_point_bucket(compiles):
         for s, d in ((0, 0.8), (1, 0.82))
     ]
     n = [v[0].n_valid for v in views]
-    if bucket(n[0]) != bucket(n[1]):
+    if cloud_bucket(n[0]) != cloud_bucket(n[1]):
         pytest.skip(f"the two views fell into different buckets: {n}")
     search(views[0][0])
     compiles.clear()

@@ -132,6 +132,7 @@ def render_view(
         depth=noisy,
         gt_mesh=mesh,
         gt_pose=pose,
+        gt_diagonal=obj.oriented_diagonal,
         symmetry=kind,
         symmetry_planes=planes,
         symmetry_axis=axis,

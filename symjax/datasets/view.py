@@ -36,6 +36,8 @@ class View:
             0 = no depth.
         gt_mesh: Ground-truth ``trimesh.Trimesh`` in the world frame as posed, or None.
         gt_pose: Object pose (4, 4) mapping the canonical object frame to the world, or None.
+        gt_diagonal: Diagonal of the true object's oriented bounding box, metres (the same in
+            every pose; the centroid error divides by it), or None: taken from ``gt_mesh``.
         symmetry: ``"planar"``, ``"rotational"`` (about the vertical axis ``symmetry_axis``),
             ``"none"`` or ``"unknown"``.
         symmetry_planes: True symmetry planes ``(normal (3,), offset)`` of ``{x : n . x = offset}``
@@ -60,6 +62,7 @@ class View:
     depth: np.ndarray
     gt_mesh: Any | None = None
     gt_pose: np.ndarray | None = None
+    gt_diagonal: float | None = None
     symmetry: SymmetryKind = "unknown"
     symmetry_planes: list[tuple[np.ndarray, float]] | None = None
     symmetry_axis: tuple[np.ndarray, np.ndarray] | None = None

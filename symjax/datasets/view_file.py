@@ -92,6 +92,7 @@ def decode_view(path: Path, obj: ObjectModel | None) -> View:
         depth=arrays["depth"],
         gt_mesh=mesh,
         gt_pose=arrays["gt_pose"],
+        gt_diagonal=None if obj is None else obj.oriented_diagonal,
         symmetry=meta["symmetry"],
         symmetry_planes=None
         if planes is None

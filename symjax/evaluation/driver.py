@@ -18,10 +18,11 @@ from symjax import _interrupt
 from symjax._atomic import atomic_write_json
 from symjax.errors import ConfigError, InvalidInputError
 from symjax.evaluation.config import EvalConfig
+from symjax.evaluation.metric_jobs import MetricRunner
 from symjax.evaluation.records import ViewRecord, load_records, rows_of, view_file
 from symjax.evaluation.selection import select_views
-from symjax.evaluation.stages import process_batch
-from symjax.geometry import bucket
+from symjax.evaluation.stages import start_batch
+from symjax.geometry import cloud_bucket
 
 __all__ = ["claim_folder", "evaluate", "run_evaluation", "writable_folder"]
 
@@ -88,7 +89,7 @@ def _by_bucket(views, todo: list[int]) -> list[int]:
 
     def size(i: int) -> int:
         n = views.n_points(i) if hasattr(views, "n_points") else len(views[i].points)
-        return bucket(n)
+        return cloud_bucket(n)
 
     return sorted(todo, key=lambda i: (size(i), i))
 
@@ -124,18 +125,32 @@ def evaluate(
         f" ({', '.join(config.methods)}; batches of {ex.eval_batch_size})"
     )
     bar = tqdm(total=len(todo), unit="view", disable=not ex.progress or not todo, leave=False)
+
+    def write(records: list[ViewRecord]) -> None:
+        for rec in records:
+            atomic_write_json(view_file(config.out_dir, rec.view), rec.to_json())
+            done[rec.view] = rec
+        bar.update(len(records))
+
+    # The metrics of a batch are measured in a worker while the next batch is searched and
+    # meshed (a run of one batch gains nothing from a worker it would have to start).
+    workers = ex.metric_workers if len(todo) > ex.eval_batch_size else 0
     try:
-        for s in range(0, len(todo), ex.eval_batch_size):
-            batch, load_s = [], []
-            for i in todo[s : s + ex.eval_batch_size]:
-                _interrupt.check()
-                t0 = time.perf_counter()
-                batch.append(views[i])
-                load_s.append(time.perf_counter() - t0)
-            for rec in process_batch(batch, config, load_s):
-                atomic_write_json(view_file(config.out_dir, rec.view), rec.to_json())
-                done[rec.view] = rec
-            bar.update(len(batch))
+        with MetricRunner(workers) as runner:
+            pending = None
+            for s in range(0, len(todo), ex.eval_batch_size):
+                batch, load_s = [], []
+                for i in todo[s : s + ex.eval_batch_size]:
+                    _interrupt.check()
+                    t0 = time.perf_counter()
+                    batch.append(views[i])
+                    load_s.append(time.perf_counter() - t0)
+                finish = start_batch(batch, config, load_s, runner)
+                if pending is not None:
+                    write(pending())
+                pending = finish
+            if pending is not None:
+                write(pending())
     finally:
         bar.close()
     records = [done[n] for n in names]

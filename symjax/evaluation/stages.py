@@ -10,35 +10,18 @@ equally among the views of the batch.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from symjax import _interrupt
 from symjax.errors import SymjaxError, one_line
 from symjax.evaluation.config import POISSON_DEPTHS, EvalConfig
+from symjax.evaluation.metric_jobs import MetricRunner
 from symjax.evaluation.records import MeshResult, PlaneResult, ViewRecord
 
-__all__ = ["process_batch"]
-
-
-def _measure(view, method: str, mesh, cfg: EvalConfig) -> MeshResult:
-    """Deviation statistics (mm) and centroid error of one mesh against the view's truth."""
-    from symjax.metrics import centroid_error, mesh_deviation
-
-    if view.gt_mesh is None:
-        return MeshResult(method, True, n_faces=int(len(mesh.faces)))
-    dev = mesh_deviation(view.gt_mesh, mesh, n_samples=cfg.n_samples)
-    return MeshResult(
-        method,
-        True,
-        n_faces=int(len(mesh.faces)),
-        dev_mean_mm=1e3 * dev.mean,
-        dev_var_mm2=1e6 * dev.variance,
-        dev_max_mm=1e3 * dev.max,
-        dev_p50_mm=1e3 * dev.percentiles[50],
-        dev_p95_mm=1e3 * dev.percentiles[95],
-        centroid_error=centroid_error(view.gt_mesh, mesh, n_samples=cfg.n_samples),
-    )
+__all__ = ["process_batch", "start_batch"]
 
 
 def _plane_result(view, res) -> PlaneResult:
@@ -109,6 +92,18 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
         config: The evaluation configuration.
         load_s: Seconds each view took to load.
     """
+    with MetricRunner(0) as runner:
+        return start_batch(views, config, load_s, runner)()
+
+
+def start_batch(
+    views: list, config: EvalConfig, load_s: list[float], runner: MetricRunner
+) -> Callable[[], list[ViewRecord]]:
+    """Runs the stages of one batch up to the meshes and hands their metrics to ``runner``.
+
+    Returns:
+        A function that waits for the metrics and returns the batch's records.
+    """
     import jax
 
     from symjax.surface import delaunay_mesh, oriented_completion
@@ -157,36 +152,41 @@ def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[
                 built["Del"][i] = one_line(e)
             timings[i]["delaunay"] = time.perf_counter() - t1
 
-    records = []
-    key = config.key()
+    jobs: dict[tuple[int, str], Any] = {}
     for i, v in enumerate(views):
-        _interrupt.check()
-        per_method: list[MeshResult] = []
         for m in config.methods:
-            mesh = built[m][i]
-            t1 = time.perf_counter()
-            if isinstance(mesh, str):
-                res = MeshResult(m, False, error=mesh)
-            else:
-                try:
-                    res = _measure(v, m, mesh, config)
-                except SymjaxError as e:
-                    res = MeshResult(m, False, error=one_line(e), n_faces=int(len(mesh.faces)))
-            timings[i][f"metrics_{m}"] = time.perf_counter() - t1
-            per_method.append(res)
-        records.append(
-            ViewRecord(
-                view=v.name,
-                dataset=v.dataset,
-                object=v.object_name,
-                orientation_deg=float(v.orientation_deg),
-                source=v.source,
-                has_ground_truth=v.gt_mesh is not None,
-                config_key=key,
-                n_points=int(len(v.points)),
-                symmetry=None if results[i] is None else _plane_result(v, results[i]),
-                results=tuple(per_method),
-                timings_s=timings[i],
+            if not isinstance(built[m][i], str):
+                jobs[i, m] = runner.submit(
+                    m, v.gt_mesh, built[m][i], config.n_samples, v.gt_diagonal
+                )
+
+    def finish() -> list[ViewRecord]:
+        records = []
+        key = config.key()
+        for i, v in enumerate(views):
+            _interrupt.check()
+            per_method: list[MeshResult] = []
+            for m in config.methods:
+                if (i, m) in jobs:
+                    res, timings[i][f"metrics_{m}"] = jobs[i, m].result()
+                else:
+                    res, timings[i][f"metrics_{m}"] = MeshResult(m, False, error=built[m][i]), 0.0
+                per_method.append(res)
+            records.append(
+                ViewRecord(
+                    view=v.name,
+                    dataset=v.dataset,
+                    object=v.object_name,
+                    orientation_deg=float(v.orientation_deg),
+                    source=v.source,
+                    has_ground_truth=v.gt_mesh is not None,
+                    config_key=key,
+                    n_points=int(len(v.points)),
+                    symmetry=None if results[i] is None else _plane_result(v, results[i]),
+                    results=tuple(per_method),
+                    timings_s=timings[i],
+                )
             )
-        )
-    return records
+        return records
+
+    return finish

@@ -17,7 +17,7 @@ import numpy as np
 from symjax.array_types import ArrayLike
 from symjax.errors import InvalidInputError, SymjaxError, config_or_default
 from symjax.execution import ExecutionConfig
-from symjax.geometry import bucket
+from symjax.geometry import cloud_bucket
 from symjax.surface.config import PoissonConfig
 from symjax.surface.isosurface import InsideOutError, grid_to_mesh
 from symjax.surface.normals import OrientedPoints
@@ -54,7 +54,7 @@ def poisson_reconstruct(
     """
     cfg = config_or_default(config, PoissonConfig)
     n = len(points) if hasattr(points, "__len__") else 0
-    P, N, W, V = pack_views([(points, normals, weights)], cfg, bucket(max(n, 1)))
+    P, N, W, V = pack_views([(points, normals, weights)], cfg, cloud_bucket(max(n, 1)))
     table = _check_table(table)
     grid = jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg))
     return _mesh(grid, (P, N, W, V), cfg, table)
@@ -81,7 +81,7 @@ def _thin_shell(points, normals, weights, cfg: PoissonConfig, table):
     cell = float(np.ptp(p, axis=0).max()) * cfg.padding / cfg.resolution
     t = max(cfg.thin_shell * cell, 0.003)
     P, N, W, V = pack_views([(np.concatenate([p, p - t * n]), np.concatenate([n, -n]),
-                              np.concatenate([w, w]))], cfg, bucket(2 * len(p)))  # fmt: skip
+                              np.concatenate([w, w]))], cfg, cloud_bucket(2 * len(p)))  # fmt: skip
     mesh = grid_to_mesh(jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg)), cfg, table)
     mesh.metadata["thin_shell_m"] = t
     return mesh
@@ -148,24 +148,33 @@ def poisson_reconstruct_batch(
     # Each view keeps its own point bucket, so its rounding never depends on the batch; views
     # of one bucket are solved in one call.
     groups: dict[int, dict[int, tuple]] = {}
+    packed_of: dict[int, tuple] = {}
     for i, t in enumerate(triples):
         try:
-            n = bucket(max(len(t[0]), 1))
-            groups.setdefault(n, {})[i] = pack_views([t], cfg, n)
+            n = cloud_bucket(max(len(t[0]), 1))
+            packed_of[i] = pack_views([t], cfg, n)
+            groups.setdefault(n, {})[i] = packed_of[i]
         except SymjaxError as e:
             if errors == "raise":
                 raise
             out[i] = e
+    # Every call solves exactly one chunk of views, the last one filled with copies of its
+    # first view: one compiled shape per point bucket, whatever the group sizes of a sequence
+    # of batches. All calls are dispatched before the first grid is read.
+    calls = []
     for packed in groups.values():
         idx = sorted(packed)
-        # Padded to a power of two (copies of the first view): few compiled batch shapes.
-        size = max(2, ex.poisson_chunk_views, 1 << (len(idx) - 1).bit_length())
-        rows = idx + [idx[0]] * (size - len(idx))
-        arrays = [jax.numpy.concatenate([packed[i][k] for i in rows]) for k in range(4)]
-        grids = jax.device_get(solve_grids(*arrays, cfg, ex.poisson_chunk_views))
-        for j, i in enumerate(idx):
+        width = max(2, ex.poisson_chunk_views or len(idx))
+        for s in range(0, len(idx), width):
+            part = idx[s : s + width]
+            rows = part + [part[0]] * (width - len(part))
+            arrays = [np.concatenate([packed[i][k] for i in rows]) for k in range(4)]
+            calls.append((part, solve_grids(*arrays, cfg, width)))
+    for part, grids in calls:
+        grids = jax.device_get(grids)
+        for j, i in enumerate(part):
             try:
-                out[i] = _mesh(grids[j], packed[i], cfg, tables[i])
+                out[i] = _mesh(grids[j], packed_of[i], cfg, tables[i])
             except SymjaxError as e:
                 if errors == "raise":
                     raise

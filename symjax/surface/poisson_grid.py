@@ -282,10 +282,9 @@ def solve_grids(
     Returns:
         A batched :class:`PoissonGrid` with chi (B, R, R, R).
     """
-    points = jnp.asarray(points)
-    if points.ndim != 3 or points.shape[-1] != 3:
-        raise ShapeError(f"points must have shape (B, N, 3), got {points.shape}")
-    b, n = points.shape[:2]
+    if len(np.shape(points)) != 3 or np.shape(points)[-1] != 3:
+        raise ShapeError(f"points must have shape (B, N, 3), got {np.shape(points)}")
+    b, n = np.shape(points)[:2]
     expected = {"normals": (b, n, 3), "weights": (b, n), "valid": (b, n)}
     for name, arr in (("normals", normals), ("weights", weights), ("valid", valid)):
         if tuple(np.shape(arr)) != expected[name]:
@@ -294,9 +293,13 @@ def solve_grids(
     # grid is the same whatever its batch only if every batch runs at the same width.
     chunk = max(2, b if chunk == 0 else chunk)
     pad = (-b) % chunk
-    arrs = [points, jnp.asarray(normals), jnp.asarray(weights), jnp.asarray(valid, bool)]
+    arrs = [points, normals, weights, valid]
+    # Host arrays stay on the host until the jitted call: an eager jnp op would compile a small
+    # program for every new shape.
+    xp = np if all(isinstance(a, np.ndarray) for a in arrs) else jnp
+    arrs[3] = xp.asarray(arrs[3], bool)
     if pad:
         # Repeat the first view to fill the last chunk; the copies are dropped below.
-        arrs = [jnp.concatenate([a, jnp.repeat(a[:1], pad, axis=0)], axis=0) for a in arrs]
+        arrs = [xp.concatenate([a, xp.repeat(a[:1], pad, axis=0)], axis=0) for a in arrs]
     out = _poisson_batch_jit(*arrs, config, chunk)
     return jax.tree_util.tree_map(lambda x: x[:b], out) if pad else out

@@ -15,6 +15,12 @@ from symjax.errors import ShapeError
 __all__ = ["SymmetryResult"]
 
 
+def _xp(x):
+    """numpy for host arrays (a batch's results are kept there), jax.numpy for device arrays
+    and tracers: an eager jnp call on host data compiles a small program for every shape."""
+    return jnp if isinstance(x, jax.Array) else np
+
+
 @pytree_dataclass
 class SymmetryResult:
     """Outcome of the search for one view (or a batch, with a leading view axis).
@@ -82,17 +88,18 @@ class SymmetryResult:
     @property
     def completed_points(self):
         """(2N, 3) observed then mirrored points (use :attr:`completed_valid`)."""
-        return jnp.concatenate([self.points, self.mirrored], axis=-2)
+        return _xp(self.points).concatenate([self.points, self.mirrored], axis=-2)
 
     @property
     def completed_valid(self):
         """(2N,) validity of :attr:`completed_points`."""
-        return jnp.concatenate([self.valid, self.mirrored_keep], axis=-1)
+        return _xp(self.valid).concatenate([self.valid, self.mirrored_keep], axis=-1)
 
     @property
     def completed_plausibility(self):
         """(2N,) plausibility of :attr:`completed_points` (1 for observed points)."""
-        return jnp.concatenate([jnp.ones_like(self.plausibility), self.plausibility], axis=-1)
+        xp = _xp(self.plausibility)
+        return xp.concatenate([xp.ones_like(self.plausibility), self.plausibility], axis=-1)
 
     def completed_cloud(self) -> np.ndarray:
         """The completed cloud of one view as numpy (M, 3): observed plus kept mirrored points."""

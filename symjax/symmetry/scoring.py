@@ -5,6 +5,8 @@ Kernels for one view and one hypothesis, batched with ``vmap`` by the callers.
 
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 
@@ -147,8 +149,40 @@ def score_planes(
     return outside, inside, config.w_outside * outside + config.w_inside * inside
 
 
+#: Points scored per step of :func:`_score_chunk`'s loop: the loop stops after the last valid
+#: point, so a cloud padded to a power of two costs what its own points cost.
+SLAB_POINTS = 1024
+
+
 def _score_chunk(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
     """:func:`score_planes` for one chunk of planes: ``(outside, inside)``, each (P,)."""
+    N = view.points.shape[0]
+    slab = SLAB_POINTS if N % SLAB_POINTS == 0 else N
+    index = jnp.arange(N)
+    last = jnp.max(jnp.where(view.valid, index, -1))
+    used = (last + slab) // slab  # slabs up to the last valid point (0 if none)
+    zero = jnp.zeros(normals.shape[0], view.points.dtype)
+
+    def step(k, acc):
+        part = dataclasses.replace(
+            view,
+            points=jax.lax.dynamic_slice_in_dim(view.points, k * slab, slab),
+            valid=jax.lax.dynamic_slice_in_dim(view.valid, k * slab, slab),
+        )
+        sums = _slab_sums(part, normals, offsets, cfg, gate)
+        return tuple(a + b for a, b in zip(acc, sums, strict=True))
+
+    s_out, s_in, n_in = jax.lax.fori_loop(0, used, step, (zero, zero, zero))
+    n_valid = view.valid.sum().astype(zero.dtype)
+    n_out = n_valid - n_in
+    if cfg.normalize == "all":
+        n_out = n_in = jnp.broadcast_to(n_valid, n_in.shape)
+    return s_out / jnp.maximum(n_out, 1.0), s_in / jnp.maximum(n_in, 1.0)
+
+
+def _slab_sums(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
+    """Sums over one slab of points, per plane (P,): outside ``delta_1``, inside ``delta_2``
+    and the number of valid points that project inside the mask."""
     H, W = view.image.shape[0], view.image.shape[1]
     cam_points = (view.points - view.t_wc[None, :]) @ view.R_wc
 
@@ -177,17 +211,12 @@ def _score_chunk(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
     out_w = (valid & ~inside).astype(dist.dtype)
     zero = jnp.zeros((), dist.dtype)
     # One variadic reduction: a single pass over the points instead of one per sum.
-    s_out, s_in, n_in = jax.lax.reduce(
+    return jax.lax.reduce(
         (delta1 * out_w, delta2 * in_w, in_w),
         (zero, zero, zero),
         lambda a, b: tuple(x + y for x, y in zip(a, b, strict=True)),
         (1,),
     )
-    n_valid = view.valid.sum().astype(dist.dtype)
-    n_out = n_valid - n_in
-    if cfg.normalize == "all":
-        n_out = n_in = jnp.broadcast_to(n_valid, n_in.shape)
-    return s_out / jnp.maximum(n_out, 1.0), s_in / jnp.maximum(n_in, 1.0)
 
 
 #: Points sampled for the extent and the bounding-box orientation.

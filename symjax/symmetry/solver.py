@@ -22,7 +22,7 @@ from symjax.errors import (
     config_or_default,
 )
 from symjax.execution import ExecutionConfig
-from symjax.geometry import bucket, reflect
+from symjax.geometry import cloud_bucket, reflect
 from symjax.observation import Observation
 from symjax.symmetry.config import SymmetryConfig
 from symjax.symmetry.hypotheses import search_view
@@ -86,26 +86,32 @@ def search(
     ex = config_or_default(execution, ExecutionConfig, "execution")
     if not isinstance(obs, Observation):
         raise InvalidInputError(f"search expects a symjax.Observation, got {type(obs).__name__}")
-    view = prepare_view(obs, bucket(len(np.asarray(obs.points))))
+    view = prepare_view(obs, cloud_bucket(len(np.asarray(obs.points))))
     res = _search_jit(view, cfg, ex.symmetry_chunk_hypotheses)
     _checked_plane(res)
     return res
 
 
 def _run_group(views: list[ViewArrays], cfg: SymmetryConfig, ex: ExecutionConfig) -> list:
-    """Single-view results of views with one image shape and one point bucket, in one call.
+    """Single-view results of views with one image shape and one point bucket.
 
-    Every call runs at one vmap width, the configured chunk (at least 2): XLA's rounding can
-    change with the width, so a fixed width is what makes a view's result independent of its
-    batch, and it compiles once per bucket. Group sizes are padded to powers of two (copies of
-    the first view) so that few batch shapes compile.
+    Every call scores exactly one chunk of views (``symmetry_chunk_views``, at least 2; 0 = the
+    whole group in one call), the last chunk filled with copies of the first view: XLA's rounding
+    can change with the vmap width, so one width is what makes a view's result independent of
+    its batch, and one call shape per point bucket is what keeps a sequence of batches from
+    compiling again for every group size. The calls are dispatched before any result is read.
     """
     chunk = max(2, ex.symmetry_chunk_views if ex.symmetry_chunk_views > 0 else len(views))
-    size = max(chunk, 1 << (len(views) - 1).bit_length())
-    padded = views + [views[0]] * (size - len(views))
-    stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *padded)
-    out = jax.device_get(_search_batch_jit(stacked, cfg, chunk, ex.symmetry_chunk_hypotheses))
-    return [jax.tree_util.tree_map(lambda x, i=i: x[i], out) for i in range(len(views))]
+    padded = views + [views[0]] * ((-len(views)) % chunk)
+    calls = []
+    for s in range(0, len(padded), chunk):
+        # Stacked on the host: jnp.stack would compile a small program for every new shape.
+        stacked = jax.tree_util.tree_map(lambda *xs: np.stack(xs), *padded[s : s + chunk])
+        calls.append(_search_batch_jit(stacked, cfg, chunk, ex.symmetry_chunk_hypotheses))
+    out = []
+    for res in jax.device_get(calls):
+        out.extend(jax.tree_util.tree_map(lambda x, i=i: x[i], res) for i in range(chunk))
+    return out[: len(views)]
 
 
 def search_batch(
@@ -150,7 +156,7 @@ def search_batch(
     views: dict[int, ViewArrays] = {}
     for i, o in enumerate(observations):
         try:
-            views[i] = prepare_view(o, bucket(len(np.asarray(o.points))))
+            views[i] = prepare_view(o, cloud_bucket(len(np.asarray(o.points))))
         except SymjaxError as e:
             errors[i] = e
     if not views:
@@ -165,6 +171,9 @@ def search_batch(
         groups.setdefault((*v.image.shape[:2], int(v.points.shape[0])), []).append(i)
     single: dict[int, SymmetryResult] = {}
     for idx in groups.values():
+        # Neighbours by point count share a vmap: the kernel's loop runs to the larger one's
+        # last point, so pairing 4,000 with 8,000 points would score the first twice over.
+        idx = sorted(idx, key=lambda i: int(np.sum(np.asarray(views[i].valid))))
         for i, r in zip(idx, _run_group([views[i] for i in idx], cfg, ex), strict=True):
             try:
                 _checked_plane(r)
@@ -179,7 +188,7 @@ def search_batch(
     n = max(int(np.shape(r.points)[0]) for r in single.values())
     template = next(iter(single.values()))
     rows = [_fit(single.get(i), template, n) for i in range(len(observations))]
-    stacked = jax.tree_util.tree_map(lambda *xs: jnp.asarray(np.stack(xs)), *rows)
+    stacked = jax.tree_util.tree_map(lambda *xs: np.stack(xs), *rows)
     return dataclasses.replace(
         stacked, errors=tuple(errors) if any(e is not None for e in errors) else None
     )

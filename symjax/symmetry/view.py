@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import jax.numpy as jnp
 import numpy as np
 
 from symjax._pytree import pytree_dataclass
@@ -16,7 +15,8 @@ __all__ = ["ViewArrays", "prepare_view"]
 
 @pytree_dataclass
 class ViewArrays:
-    """Device arrays of one view (or a batch, with a leading axis) as the kernel reads them.
+    """Arrays of one view (or a batch, with a leading axis) as the kernel reads them; numpy on
+    the host (the jitted kernel moves them), so that stacking views compiles nothing.
 
     Attributes:
         points: (N, 3) world points, metres; padded rows are ignored.
@@ -104,11 +104,11 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
     dt = mask_distance(mask, depth)
     T = np.asarray(obs.camera.T_world_cam, np.float64)
     return ViewArrays(
-        points=jnp.asarray(np.asarray(obs.points, np.float32)),
-        valid=jnp.asarray(np.asarray(obs.valid, bool)),
-        table_normal=jnp.asarray(np.asarray(obs.table.normal, np.float32)),
-        R_wc=jnp.asarray(T[:3, :3].astype(np.float32)),
-        t_wc=jnp.asarray(T[:3, 3].astype(np.float32)),
-        K=jnp.asarray(np.asarray(obs.camera.K, np.float32)),
-        image=jnp.asarray(np.stack([dt.astype(np.float32), depth], axis=-1)),
+        points=np.asarray(obs.points, np.float32),
+        valid=np.asarray(obs.valid, bool),
+        table_normal=np.asarray(obs.table.normal, np.float32),
+        R_wc=T[:3, :3].astype(np.float32),
+        t_wc=T[:3, 3].astype(np.float32),
+        K=np.asarray(obs.camera.K, np.float32),
+        image=np.stack([dt.astype(np.float32), depth], axis=-1),
     )
