@@ -40,7 +40,7 @@ from symjax._timing import median_time  # noqa: E402
 from symjax.cli.common import PresetArgs, parse  # noqa: E402
 from symjax.datasets.primitives import K_DEFAULT, primitive_view, symmetry_truth  # noqa: E402
 from symjax.execution import ExecutionConfig  # noqa: E402
-from symjax.geometry import bucket  # noqa: E402
+from symjax.geometry import cloud_bucket  # noqa: E402
 from symjax.metrics import plane_error  # noqa: E402
 from symjax.observation import Observation  # noqa: E402
 from symjax.symmetry import SymmetryConfig, prepare_view, search, search_batch  # noqa: E402
@@ -87,7 +87,7 @@ def _numpy_reference(obs: Observation, result, cfg: SymmetryConfig) -> tuple[flo
 def case_single(
     name: str, obs: Observation, cfg: SymmetryConfig, repeats: int, truth, ex: ExecutionConfig
 ) -> dict:
-    view = prepare_view(obs, bucket(obs.n_valid))
+    view = prepare_view(obs, cloud_bucket(obs.n_valid))
     t0 = time.perf_counter()
     compiled = _search_jit.lower(view, cfg, ex.symmetry_chunk_hypotheses).compile()
     compile_s = time.perf_counter() - t0
@@ -124,7 +124,7 @@ def case_batch(
     obs = [v[0] for v in views]
     # Kernel alone: the stacked device arrays search_batch builds, compiled explicitly first (a
     # later lower().compile() would be answered from the in-memory cache of the first call).
-    n = bucket(max(o.n_valid for o in obs))
+    n = cloud_bucket(max(o.n_valid for o in obs))
     stacked = jax.tree_util.tree_map(
         lambda *x: jax.numpy.stack(x), *[prepare_view(o, n) for o in obs]
     )

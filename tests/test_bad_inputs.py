@@ -298,6 +298,7 @@ CASES = [
     ("sim-cone", lambda d: grasp.SimulationConfig(cone="square"), ConfigError, ["cone", "'square'", "'pyramidal'"]),
     ("decompose-threshold", lambda d: decompose.DecomposeConfig(threshold=2.0), ConfigError, ["threshold", "[0.01, 1]", "2.0"]),
     ("execution-chunk", lambda d: ExecutionConfig(simulation_chunk=0), ConfigError, ["simulation_chunk", ">= 1", "0"]),
+    ("execution-metric-workers", lambda d: ExecutionConfig(metric_workers=-1), ConfigError, ["metric_workers", "-1"]),
     ("execution-bool", lambda d: ExecutionConfig(eval_batch_size=True), ConfigError, ["eval_batch_size", "True"]),
     ("segmentation-seed", lambda d: perception.SegmentationConfig(seed=1.5), ConfigError, ["seed = 1.5", "an integer"]),
     ("platform-hand", lambda d: robots.PlatformConfig(robot="uji", hand="sdh"), ConfigError, ["hand = 'sdh'", "'barrett'"]),
@@ -333,6 +334,8 @@ CASES = [
     ("deviation-type", lambda d: metrics.mesh_deviation(BOX, "box.ply"), InvalidInputError, ["trimesh.Trimesh", "str"]),
     ("deviation-faces", lambda d: metrics.mesh_deviation(BOX, (BOX.vertices, BOX.faces + 100)), ShapeError, ["face indices", "[0, 8)"]),
     ("surface-distance-shape", lambda d: metrics.surface_distance(PTS[:, :2], BOX), ShapeError, ["(N, 3)", "2)"]),
+    ("centroid-diagonal", lambda d: metrics.centroid_error(BOX, BOX, 100, diagonal=-0.1), InvalidInputError, ["diagonal", "positive", "-0.1"]),
+    ("deviation-no-area", lambda d: metrics.mesh_deviation(BOX, (np.zeros((4, 3)), np.array([[0, 1, 2], [1, 2, 3], [0, 2, 3], [0, 1, 3]]))), EmptyInputError, ["zero surface area"]),
     ("plane-error-zero", lambda d: metrics.plane_error([0, 0, 0], 0.0, planes=[([1, 0, 0], 0.0)]), InvalidInputError, ["non-zero", "[0.0, 0.0, 0.0]"]),
     ("plane-error-shape", lambda d: metrics.plane_error([1, 0], 0.0), ShapeError, ["(3,)", "(2,)"]),
     # --- files -------------------------------------------------------------------------------

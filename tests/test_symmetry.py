@@ -66,6 +66,18 @@ def test_single_search_matches_batch(views, batch_result, strict_ranks):
     np.testing.assert_allclose(np.asarray(r.votes), np.asarray(b.votes), rtol=2e-3, atol=1e-5)
 
 
+def test_padding_costs_nothing_and_changes_nothing(views, batch_result):
+    """A cloud padded far beyond its points (4x its bucket): the kernel's loop stops at the
+    last valid point, and the plane and votes are those of the unpadded view."""
+    from symjax.geometry import cloud_bucket
+
+    obs = views[5][2]
+    padded = obs.padded(4 * cloud_bucket(len(np.asarray(obs.points))))
+    r, b = search(padded), batch_result[5]
+    np.testing.assert_allclose(np.asarray(r.normal), np.asarray(b.normal), atol=1e-5)
+    np.testing.assert_allclose(np.asarray(r.votes), np.asarray(b.votes), rtol=2e-3, atol=1e-5)
+
+
 @pytest.mark.parametrize("normalize", ["subset", "all"])
 def test_vmapped_scorer_equals_numpy_loop(views, normalize, strict_ranks):
     obs = views[10][2]

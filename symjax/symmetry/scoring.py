@@ -149,15 +149,19 @@ def score_planes(
     return outside, inside, config.w_outside * outside + config.w_inside * inside
 
 
-#: Points scored per step of :func:`_score_chunk`'s loop: the loop stops after the last valid
-#: point, so a cloud padded to a power of two costs what its own points cost.
-SLAB_POINTS = 1024
+#: Steps of :func:`_score_chunk`'s loop over a cloud's points, at most (slabs of at least
+#: :data:`MIN_SLAB` points). The loop stops after the last valid point, so a cloud padded to a
+#: power of two costs at most an eighth more than its own points; more, smaller steps cost more
+#: than they save (40,000 points x 35 planes: 13 ms in slabs of 8,192, 19 ms in slabs of 1,024).
+SLABS = 8
+MIN_SLAB = 1024
 
 
 def _score_chunk(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
     """:func:`score_planes` for one chunk of planes: ``(outside, inside)``, each (P,)."""
     N = view.points.shape[0]
-    slab = SLAB_POINTS if N % SLAB_POINTS == 0 else N
+    slab = max(MIN_SLAB, N // SLABS)
+    slab = slab if N % slab == 0 else N
     index = jnp.arange(N)
     last = jnp.max(jnp.where(view.valid, index, -1))
     used = (last + slab) // slab  # slabs up to the last valid point (0 if none)
