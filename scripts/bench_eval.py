@@ -6,14 +6,22 @@
   points, is the exact search it replaced (a k-d tree of face centroids, every ball query
   widened by the largest triangle); ``max_abs_diff_m`` is the largest difference of the
   distances. The libigl AABB tree is built inside the timed call (a new mesh each time).
-* ``search_batch``: the default search over the first 32 benchmark views in batches of 16,
-  per view after a warm-up pass (the compile), at the default ``symmetry_chunk_views`` (2)
-  against the former default (4) in the same run, and whether the planes are identical.
-* ``eval_stages`` (with ``--before DIR --after DIR``): the stage totals of two ``symjax eval``
-  runs over the 128 views (``results.json``), before and after, their ratio, and whether the
-  printed summary is the same.
+* ``search_batch``: the default search over the first 32 benchmark views in batches of 16, per
+  view after a warm-up pass (the compile), at the default execution settings.
+* ``search_single``: the same 32 views searched one by one (the reference of the batch).
+* ``poisson7_view``: a Poisson depth-7 mesh per view after compilation (splat and solve batched,
+  marching cubes and the table cut), on the completed clouds of the first 16 views.
+* ``first_view``: a new process (``--probe first``) searches and meshes its first view; with an
+  empty persistent compilation cache (cold) and again with the cache it left (warm).
+* ``compile_counts``: a new process searches and meshes views of 1,500 to 200,000 points and
+  counts the compilations of each kernel against the number of point buckets.
+* ``eval_run``: ``symjax eval`` over the 128 views in a new process, cold (empty compilation
+  cache) and warm, wall time and stage totals (``--eval``).
+* ``eval_stages`` (with ``--before DIR``): the stage totals of an earlier ``symjax eval`` run of
+  the same settings against the warm run above, their ratio, and whether the printed summary is
+  the same.
 
-Usage: ``python scripts/bench_eval.py [--before out/eval_before --after out/eval_after]``
+Usage: ``python scripts/bench_eval.py [--eval] [--before out/eval_before]``
 """
 
 from __future__ import annotations
@@ -40,9 +48,11 @@ class Args(PresetArgs):
     """Options of this benchmark."""
 
     before: str | None = None
-    """An earlier ``symjax eval`` output folder."""
-    after: str | None = None
-    """A later one, of the same settings."""
+    """An earlier ``symjax eval`` output folder (of the same settings) to compare with."""
+    eval: bool = False
+    """Run ``symjax eval`` cold and warm (about three minutes)."""
+    probe: str | None = None
+    """Internal: ``first`` or ``compiles``, run in a new process by the cases above."""
     repeats: int = 5
     """Timed calls per case (the best is reported)."""
     out: str = str(ROOT / "bench" / "results" / "eval.json")
@@ -128,6 +138,9 @@ def main(argv=None) -> int:
     from symjax.metrics import mesh_deviation, sample_surface, surface_distance
 
     args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_eval.py", __doc__)
+    if args.probe:
+        _run_probe(args.probe)
+        return 0
     meta = {"machine": platform.machine(), "cpus": os.cpu_count()}
     emit = JsonRows(args.out, meta).emit
 
@@ -153,50 +166,214 @@ def main(argv=None) -> int:
             "implementation": "libigl AABB tree (igl.AABB.squared_distance, float64)",
             "load_avg": load0,
         })  # fmt: skip
-    emit(_bench_search())
-    if args.before and args.after:
-        runs = {}
-        for tag, folder in (("before", args.before), ("after", args.after)):
-            d = json.loads((Path(folder) / "results.json").read_text())
-            runs[tag] = d
-        tb, ta = runs["before"]["summary"]["timings_s"], runs["after"]["summary"]["timings_s"]
-        same = json.dumps(_printed(runs["before"]["summary"])) == json.dumps(
-            _printed(runs["after"]["summary"]))  # fmt: skip
-        emit({
-            "case": "eval_stages", "rows": len(runs["after"]["rows"]),
-            "before_s": {k: round(v, 2) for k, v in tb.items()},
-            "after_s": {k: round(v, 2) for k, v in ta.items()},
-            "ratio": {k: round(tb[k] / ta[k], 2) for k in tb if k in ta and ta[k] > 0},
-            "run_before_s": round(runs["before"]["run"]["run_s"], 1),
-            "run_after_s": round(runs["after"]["run"]["run_s"], 1),
-            "summary_unchanged_to_the_printed_digit": same,
-        })  # fmt: skip
+    for row in _bench_search():
+        emit(row)
+    emit(_bench_poisson())
+    emit(_bench_first_view())
+    emit(_probe("compiles", os.environ.get("JAX_COMPILATION_CACHE_DIR")))
+    after = None
+    if args.eval:
+        for row in _bench_eval_runs():
+            after = row.pop("_folder")
+            emit(row)
+    if args.before and after:
+        emit(_compare(args.before, after))
     return 0
 
 
-def _bench_search() -> dict:
+def _bench_search() -> list[dict]:
     from symjax.datasets import benchmark
-    from symjax.execution import ExecutionConfig
-    from symjax.symmetry import SymmetryConfig, search_batch
+    from symjax.symmetry import SymmetryConfig, search, search_batch
 
     obs = [v.observation for v in benchmark(None)][:32]
     cfg = SymmetryConfig()
     load0 = [round(x, 2) for x in os.getloadavg()]
-    per, planes = {}, {}
-    for width in (2, 4):
-        ex = ExecutionConfig(symmetry_chunk_views=width)
-        for s in (0, 16):
-            search_batch(obs[s : s + 16], cfg, ex)  # compile
+    for s in (0, 16):
+        search_batch(obs[s : s + 16], cfg)  # compile
+    for o in obs:
+        search(o, cfg)
+    batch, single = [], []
+    for _ in range(3):
         t0 = time.perf_counter()
-        res = [search_batch(obs[s : s + 16], cfg, ex) for s in (0, 16)]
-        per[width] = (time.perf_counter() - t0) / len(obs)
-        planes[width] = np.concatenate([np.asarray(r.normal) for r in res])
-    return {
-        "case": "search_batch", "views": len(obs), "hypotheses": 350,
-        "run_s_per_view": round(per[2], 4), "reference_s_per_view_chunk4": round(per[4], 4),
-        "speedup": round(per[4] / per[2], 2),
-        "planes_identical": bool(np.array_equal(planes[2], planes[4])),
+        res = [search_batch(obs[s : s + 16], cfg) for s in (0, 16)]
+        batch.append((time.perf_counter() - t0) / len(obs))
+        t0 = time.perf_counter()
+        one = [np.asarray(search(o, cfg).normal) for o in obs]
+        single.append((time.perf_counter() - t0) / len(obs))
+    planes = np.concatenate([np.asarray(r.normal) for r in res])
+    n = [len(o.points) for o in obs]
+    return [{
+        "case": "search_batch", "views": len(obs), "points": [min(n), max(n)], "hypotheses": 350,
+        "run_s_per_view": round(min(batch), 4), "reference_s_per_view_one_by_one":
+        round(min(single), 4), "speedup": round(min(single) / min(batch), 2),
+        "max_normal_diff_to_one_by_one": float(np.abs(planes - np.stack(one)).max()),
         "load_avg": load0,
+    }]  # fmt: skip
+
+
+def _bench_poisson() -> dict:
+    import dataclasses as dc
+
+    from symjax.datasets import benchmark
+    from symjax.surface import PoissonConfig, oriented_completion, poisson_reconstruct_batch
+    from symjax.symmetry import search_batch
+
+    bench = benchmark(None)
+    views = [bench[i] for i in range(16)]
+    res = search_batch([v.observation for v in views])
+    ops = [oriented_completion(res[i], v.camera) for i, v in enumerate(views)]
+    tables = [v.observation.table for v in views]
+    load0 = [round(x, 2) for x in os.getloadavg()]
+    out = {}
+    for depth in (5, 7):
+        cfg = dc.replace(PoissonConfig(), depth=depth)
+        poisson_reconstruct_batch(ops, cfg, tables=tables)  # compile
+        t = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            poisson_reconstruct_batch(ops, cfg, tables=tables)
+            t.append((time.perf_counter() - t0) / len(ops))
+        out[depth] = min(t)
+    return {
+        "case": "poisson7_view", "views": len(ops),
+        "points": [min(len(o.points) for o in ops), max(len(o.points) for o in ops)],
+        "run_s_per_view": round(out[7], 4), "target_s": 0.1,
+        "reference_depth5_s_per_view": round(out[5], 4),
+        "what": "splat + FFT solve (jitted, 2 views a call) + marching cubes + table cut",
+        "load_avg": load0,
+    }  # fmt: skip
+
+
+def _probe(kind: str, cache: str | None) -> dict:
+    """Runs ``--probe kind`` in a new process with the compilation cache ``cache``."""
+    import subprocess
+
+    env = dict(os.environ, JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0")
+    if cache:
+        env["JAX_COMPILATION_CACHE_DIR"] = cache
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--probe", kind]
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True).stdout
+    row = json.loads(out.strip().splitlines()[-1])
+    row["process_s"] = round(time.perf_counter() - t0, 2)  # interpreter and imports included
+    return row
+
+
+def _bench_first_view() -> dict:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as cache:
+        cold = _probe("first", cache)
+        warm = _probe("first", cache)
+    return {"case": "first_view", "cold": cold, "warm": warm, "target_warm_s": 1.0,
+            "load_avg": [round(x, 2) for x in os.getloadavg()]}  # fmt: skip
+
+
+def _run_probe(kind: str) -> None:
+    import jax
+
+    from symjax.datasets import benchmark
+    from symjax.geometry import cloud_bucket
+    from symjax.surface import oriented_completion, poisson_reconstruct
+    from symjax.symmetry import search
+
+    view = benchmark(["003_cracker_box/000"])[0]
+    if kind == "first":
+        t1 = time.perf_counter()
+        r = search(view.observation)
+        jax.block_until_ready(r.normal)
+        t2 = time.perf_counter()
+        op = oriented_completion(r, view.camera)
+        poisson_reconstruct(op.points, op.normals, op.weights, table=view.observation.table)
+        t3 = time.perf_counter()
+        row = {"points": len(view.points), "search_s": round(t2 - t1, 3),
+               "mesh_s": round(t3 - t2, 3), "first_view_s": round(t3 - t1, 3)}  # fmt: skip
+        print(json.dumps(row))
+        return
+    import logging
+
+    counts: dict[str, int] = {}
+
+    class Count(logging.Handler):
+        def emit(self, record):
+            msg = record.getMessage()
+            if msg.startswith("Compiling "):
+                name = msg.split("(")[1].split(")")[0]
+                counts[name] = counts.get(name, 0) + 1
+
+    logging.getLogger("jax").addHandler(Count())
+    logging.getLogger("jax").setLevel(logging.DEBUG)
+    obs = view.observation
+    sizes = (1500, 3000, 6000, 12000, 25000, 50000, 100000, 200000, 2500, 9000, 60000)
+    buckets = sorted({cloud_bucket(n) for n in sizes})
+    with jax.log_compiles(True):
+        for n in sizes:
+            p = obs.valid_points()
+            o = _resized(obs, np.resize(p, (n, 3)) + 1e-4 * np.arange(n)[:, None] % 1e-3)
+            r = search(o)
+            op = oriented_completion(r, view.camera)
+            poisson_reconstruct(op.points, op.normals, op.weights, table=obs.table)
+    print(
+        json.dumps(
+            {
+                "case": "compile_counts",
+                "view_sizes": list(sizes),
+                "point_buckets": buckets,
+                "search_compiles": counts.get("_search_jit", 0),
+                "poisson_compiles": counts.get("_poisson_jit", 0),
+                "kernel_compiles": {k: v for k, v in counts.items() if v and k[0] == "_"},
+            }
+        )
+    )
+
+
+def _resized(obs, points):
+    from symjax.observation import Observation
+
+    return Observation.create(points, obs.camera, obs.table, obs.mask, obs.depth)
+
+
+def _bench_eval_runs() -> list[dict]:
+    """``symjax eval`` cold and warm in new processes (stage totals from results.json)."""
+    import subprocess
+    import tempfile
+
+    rows = []
+    cache = tempfile.mkdtemp(prefix="symjax-bench-cache-")
+    for tag in ("cold", "warm"):
+        out = Path(tempfile.mkdtemp(prefix=f"symjax-bench-eval-{tag}-"))
+        env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=cache, MPLBACKEND="Agg")
+        load0 = [round(x, 2) for x in os.getloadavg()]
+        t0 = time.perf_counter()
+        cmd = [sys.executable, str(ROOT / "scripts" / "eval_dataset.py"), "--out-dir", str(out),
+               "--execution.no-progress"]  # fmt: skip
+        subprocess.run(cmd, env=env, check=True, capture_output=True)
+        wall = time.perf_counter() - t0
+        d = json.loads((out / "results.json").read_text())
+        rows.append({
+            "case": "eval_run", "cache": tag, "views": d["run"]["n_views"],
+            "wall_s": round(wall, 1), "target_s": 60.0, "run_s": round(d["run"]["run_s"], 1),
+            "figures_s": round(d["run"]["figures_s"], 1),
+            "stages_s": {k: round(v, 2) for k, v in d["summary"]["timings_s"].items()},
+            "load_avg": load0, "_folder": str(out),
+        })  # fmt: skip
+    return rows
+
+
+def _compare(before: str, after: str) -> dict:
+    runs = {t: json.loads((Path(f) / "results.json").read_text())
+            for t, f in (("before", before), ("after", after))}  # fmt: skip
+    tb, ta = runs["before"]["summary"]["timings_s"], runs["after"]["summary"]["timings_s"]
+    pb, pa = _printed(runs["before"]["summary"]), _printed(runs["after"]["summary"])
+    return {
+        "case": "eval_stages", "rows": len(runs["after"]["rows"]),
+        "before_s": {k: round(v, 2) for k, v in tb.items()},
+        "after_s": {k: round(v, 2) for k, v in ta.items()},
+        "ratio": {k: round(tb[k] / ta[k], 2) for k in tb if k in ta and ta[k] > 0},
+        "run_before_s": round(runs["before"]["run"]["run_s"], 1),
+        "run_after_s": round(runs["after"]["run"]["run_s"], 1),
+        "summary_unchanged_to_the_printed_digit": json.dumps(pb) == json.dumps(pa),
+        "methods_unchanged_to_the_printed_digit": pb["methods"] == pa["methods"],
     }  # fmt: skip
 
 

@@ -128,7 +128,8 @@ def case_batch(
     stacked = jax.tree_util.tree_map(
         lambda *x: jax.numpy.stack(x), *[prepare_view(o, n) for o in obs]
     )
-    chunk = min(ex.symmetry_chunk_views or len(obs), len(obs))
+    # One vmapped call over the batch: the GPU path (the CPU default scores one view a call).
+    chunk = min(max(2, ex.symmetry_chunk_views) if ex.symmetry_chunk_views else len(obs), len(obs))
     t0 = time.perf_counter()
     compiled = _search_batch_jit.lower(stacked, cfg, chunk, ex.symmetry_chunk_hypotheses).compile()
     compile_s = time.perf_counter() - t0

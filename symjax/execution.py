@@ -25,10 +25,11 @@ class ExecutionConfig:
 
     Attributes:
         symmetry_chunk_views: Views scored at once by :func:`symjax.symmetry.search_batch`
-            (bounds memory and keeps intermediates in cache; 0 = all). A batch's views are
-            grouped by point bucket and every group padded to this width, so a wide chunk runs
-            idle lanes for small groups: on 32 benchmark views, 2 took 51-58 ms a view after
-            compilation, 4 took 89-105 ms (2-core CPU).
+            (0 = all of a point bucket). 1: one view a call, the single-view kernel, each call
+            dispatched as its view is packed; the fastest on a CPU, where one view already
+            fills the cores (32 benchmark views: 23 ms a view against 33 ms at 2, 2-core CPU).
+            A GPU wants many (16-128): a batch's views are grouped by point bucket and every
+            group padded to this width.
         symmetry_chunk_hypotheses: Planes of one view scored at once (bounds the per-point
             intermediates; 0 = all).
         poisson_chunk_views: Views solved at once by the batched Poisson solver (0 = all); a
@@ -43,7 +44,7 @@ class ExecutionConfig:
         progress: Show progress bars.
     """
 
-    symmetry_chunk_views: int = 2
+    symmetry_chunk_views: int = 1
     symmetry_chunk_hypotheses: int = 64
     poisson_chunk_views: int = 8
     simulation_chunk: int = 512

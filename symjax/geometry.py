@@ -297,8 +297,16 @@ def is_closed(faces: np.ndarray, n_vertices: int) -> bool:
     The same test as ``trimesh``'s ``is_watertight and is_winding_consistent``, several times
     cheaper on marching-cubes meshes of 10^5 faces.
     """
-    a = faces.reshape(-1)
-    b = np.roll(faces, -1, axis=1).reshape(-1)
-    fwd = np.sort(a.astype(np.int64) * n_vertices + b)
-    rev = np.sort(b.astype(np.int64) * n_vertices + a)
-    return bool(np.all(fwd[1:] != fwd[:-1]) and np.array_equal(fwd, rev))
+    a = faces.reshape(-1).astype(np.int64)
+    b = np.roll(faces, -1, axis=1).reshape(-1).astype(np.int64)
+    # Each undirected edge exactly twice, once each way: one sort of (edge, direction) keys.
+    key = np.sort((np.minimum(a, b) * n_vertices + np.maximum(a, b)) * 2 + (a > b))
+    if key.size % 2:
+        return False
+    first, second = key[0::2], key[1::2]
+    return bool(
+        np.all(first >> 1 == second >> 1)
+        and np.all(first & 1 == 0)
+        and np.all(second & 1 == 1)
+        and np.all(first[1:] >> 1 > second[:-1] >> 1)
+    )

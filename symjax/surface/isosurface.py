@@ -39,7 +39,9 @@ def _largest_component(verts: np.ndarray, faces: np.ndarray):
     face_label = labels[faces[:, 0]]
     best = np.argmax(np.bincount(face_label, minlength=n_comp))
     faces = faces[face_label == best]
-    used = np.unique(faces)
+    keep = np.zeros(nv, bool)
+    keep[faces] = True
+    used = np.flatnonzero(keep)
     remap = np.full(nv, -1, np.int64)
     remap[used] = np.arange(used.size)
     return verts[used], remap[faces]
@@ -59,14 +61,25 @@ def _clip_below(chi: np.ndarray, grid: PoissonGrid, table: Any, iso: float, span
     n = np.asarray(table.normal, np.float64)
     n = n / np.linalg.norm(n)
     cell = float(grid.cell)
-    axes = [np.arange(k) * cell for k in chi.shape]
+    k = span / cell  # chi units per metre of height
     origin = np.asarray(grid.origin, np.float64)
-    h = (
-        float(n @ origin + table.offset)
-        + n[0] * axes[0][:, None, None] + n[1] * axes[1][None, :, None]
-        + n[2] * axes[2][None, None, :]
-    )  # fmt: skip
-    return np.minimum(chi, (iso + span / cell * h).astype(chi.dtype))
+    # iso + k h as a sum of one term per axis: one full-size temporary, in chi's dtype.
+    hx, hy, hz = (k * n[a] * cell * np.arange(chi.shape[a]) for a in range(3))
+    plane = (hx[:, None] + hy[None, :]).astype(chi.dtype)[:, :, None] + (
+        iso + k * float(n @ origin + table.offset) + hz
+    ).astype(chi.dtype)
+    return np.minimum(chi, plane, out=plane)
+
+
+def _crossing_box(chi: np.ndarray, iso: float) -> tuple[slice, slice, slice]:
+    """The sub-grid holding every cell where chi reaches ``iso``, one cell of margin: marching
+    cubes finds no crossing outside it, and scans a third of the grid instead of all of it."""
+    inside = chi >= iso
+    box = []
+    for axis in range(3):
+        hit = np.flatnonzero(inside.any(axis=tuple(a for a in range(3) if a != axis)))
+        box.append(slice(max(int(hit[0]) - 1, 0), min(int(hit[-1]) + 2, chi.shape[axis])))
+    return tuple(box)
 
 
 def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None):
@@ -111,9 +124,11 @@ def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None):
     if table is not None:
         chi = _clip_below(chi, grid, table, iso, hi_v - lo_v)
     # One layer of "outside" around the grid closes surfaces that reach the box faces.
-    vol = np.pad(chi, 1, mode="constant", constant_values=min(lo_v, iso - 1.0))
+    box = _crossing_box(chi, iso)
+    vol = np.pad(chi[box], 1, mode="constant", constant_values=min(lo_v, iso - 1.0))
     verts, faces, _, _ = measure.marching_cubes(vol, level=iso)
-    verts = np.asarray(grid.origin, np.float64) + (verts - 1.0) * float(grid.cell)
+    start = np.array([b.start for b in box], np.float64)
+    verts = np.asarray(grid.origin, np.float64) + (verts - 1.0 + start) * float(grid.cell)
     faces = faces.astype(np.int64)
     if config.keep_largest:
         verts, faces = _largest_component(verts, faces)

@@ -65,8 +65,9 @@ def search(
 ) -> SymmetryResult:
     """Finds the reflection symmetry plane perpendicular to the table of one view.
 
-    The unbatched kernel: it agrees with :func:`search_batch` to float32 rounding (about 1e-6
-    in the normal); a view's result in any batch is ``search_batch([obs])[0]`` bit for bit.
+    The unbatched kernel: :func:`search_batch` gives the same result bit for bit at the default
+    ``symmetry_chunk_views=1``, and agrees to float32 rounding (about 1e-6 in the normal) with
+    a vmapped chunk.
 
     Args:
         obs: One observation (points padded to any size; images of the camera's size).
@@ -95,8 +96,8 @@ def search(
 def _run_group(views: list[ViewArrays], cfg: SymmetryConfig, ex: ExecutionConfig) -> list:
     """Single-view results of views with one image shape and one point bucket.
 
-    Every call scores exactly one chunk of views (``symmetry_chunk_views``, at least 2; 0 = the
-    whole group in one call), the last chunk filled with copies of the first view: XLA's rounding
+    Every call scores exactly one chunk of views (``symmetry_chunk_views`` >= 2; 0 = the whole
+    group in one call), the last chunk filled with copies of the first view: XLA's rounding
     can change with the vmap width, so one width is what makes a view's result independent of
     its batch, and one call shape per point bucket is what keeps a sequence of batches from
     compiling again for every group size. The calls are dispatched before any result is read.
@@ -121,10 +122,12 @@ def search_batch(
 ) -> SymmetryResult:
     """Searches all hypotheses of all views, one jitted call per image size and point bucket.
 
-    Each view is padded to its own point bucket (:func:`symjax.geometry.bucket`); views that
-    share an image size and a bucket are scored together by
-    ``lax.map`` over chunks of ``execution.symmetry_chunk_views`` views, each chunk one
-    ``vmap``. A view that cannot be searched (NaN points, no spread, no plane found) does not
+    Each view is padded to its own point bucket (:func:`symjax.geometry.cloud_bucket`). With
+    ``execution.symmetry_chunk_views == 1`` (the default: fastest on a CPU, where one view
+    already fills the cores) each view is one call of the kernel :func:`search` runs, dispatched
+    as soon as it is packed, and its result is ``search(obs)``'s bit for bit. With a chunk of
+    ``c >= 2`` (a GPU) views that share an image size and a bucket are scored ``c`` at a time
+    by one ``vmap``. A view that cannot be searched (NaN points, no spread, no plane found) does not
     stop the batch: ``result.ok[i]`` is False, ``result.errors[i]`` says why, its float fields
     are NaN and ``result[i]`` raises. Each view's result is independent of the other views of
     the batch, bit for bit on the CPU.
@@ -154,11 +157,17 @@ def search_batch(
             )
     errors: list[SymjaxError | None] = [None] * len(observations)
     views: dict[int, ViewArrays] = {}
+    # One view a call (the default on a CPU): each call is dispatched as soon as its view is
+    # packed, so the next view is packed while this one is scored.
+    one_by_one = ex.symmetry_chunk_views == 1
     for i, o in enumerate(observations):
         try:
             views[i] = prepare_view(o, cloud_bucket(len(np.asarray(o.points))))
         except SymjaxError as e:
             errors[i] = e
+            continue
+        if one_by_one:
+            views[i] = _search_jit(views[i], cfg, ex.symmetry_chunk_hypotheses)
     if not views:
         raise InvalidInputError(
             "no view of the batch could be searched: "
@@ -167,9 +176,16 @@ def search_batch(
     # Views of one image size and one point bucket share a call: each view keeps the shapes it
     # has alone, so float rounding never depends on the rest of the batch.
     groups: dict[tuple[int, int, int], list[int]] = {}
-    for i, v in views.items():
+    for i, v in views.items() if not one_by_one else ():
         groups.setdefault((*v.image.shape[:2], int(v.points.shape[0])), []).append(i)
     single: dict[int, SymmetryResult] = {}
+    if one_by_one:  # views holds the dispatched results
+        for i, r in zip(views, jax.device_get(list(views.values())), strict=True):
+            try:
+                _checked_plane(r)
+                single[i] = r
+            except SymjaxError as e:
+                errors[i] = e
     for idx in groups.values():
         # Neighbours by point count share a vmap: the kernel's loop runs to the larger one's
         # last point, so pairing 4,000 with 8,000 points would score the first twice over.
