@@ -61,14 +61,15 @@ def _clip_below(chi: np.ndarray, grid: PoissonGrid, table: Any, iso: float, span
     n = np.asarray(table.normal, np.float64)
     n = n / np.linalg.norm(n)
     cell = float(grid.cell)
-    k = span / cell  # chi units per metre of height
+    axes = [np.arange(m) * cell for m in chi.shape]
     origin = np.asarray(grid.origin, np.float64)
-    # iso + k h as a sum of one term per axis: one full-size temporary, in chi's dtype.
-    hx, hy, hz = (k * n[a] * cell * np.arange(chi.shape[a]) for a in range(3))
-    plane = (hx[:, None] + hy[None, :]).astype(chi.dtype)[:, :, None] + (
-        iso + k * float(n @ origin + table.offset) + hz
-    ).astype(chi.dtype)
-    return np.minimum(chi, plane, out=plane)
+    # In float64, summed axis by axis in this order: grid nodes on the plane sit exactly at the
+    # iso-value, so the rounding decides their side. One full-size temporary, scaled in place.
+    h = (float(n @ origin + table.offset) + n[0] * axes[0])[:, None] + n[1] * axes[1][None, :]
+    h = h[:, :, None] + n[2] * axes[2][None, None, :]
+    h *= span / cell
+    h += iso
+    return np.minimum(chi, h.astype(chi.dtype))
 
 
 def _crossing_box(chi: np.ndarray, iso: float) -> tuple[slice, slice, slice]:
