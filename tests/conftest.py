@@ -18,7 +18,7 @@ jax.config.update(
     "jax_compilation_cache_dir",
     os.environ.get("JAX_COMPILATION_CACHE_DIR", str(ROOT / ".venv" / "cache" / "jax")),
 )
-jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
 
 # Every symjax cache (rendered benchmark, objects, coacd hulls) goes under .venv, never into the
 # user's home: the tests share it with each other and with later runs on the same checkout.
