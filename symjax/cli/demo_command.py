@@ -90,8 +90,7 @@ def _body(argv: list[str]) -> int:
     t_render = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    batch = search_batch([v[2] for v in views], cfg, args.execution)
-    batch.vote.block_until_ready()
+    batch = search_batch([v[2] for v in views], cfg, args.execution)  # host arrays: done
     t_search = time.perf_counter() - t0
 
     rows, results = [], []

@@ -7,7 +7,6 @@ recomputes its few views.
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import math
 from collections.abc import Sequence
@@ -210,11 +209,11 @@ def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) 
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     from symjax.errors import SymjaxError
-    from symjax.surface import oriented_completion, poisson_reconstruct_batch
+    from symjax.evaluation.stages import poisson_meshes
+    from symjax.surface import oriented_completion
     from symjax.symmetry import search_batch
 
     res = search_batch([v.observation for v in views], config.symmetry, config.execution)
-    mir7 = dataclasses.replace(config.poisson, depth=7)
     # The evaluation's own batched calls (same buckets, same width): no new compilation, and
     # the meshes it measured, cut at the table.
     ops: list = []
@@ -223,18 +222,8 @@ def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) 
             ops.append(oriented_completion(res[i], v.camera, config.normals))
         except SymjaxError:
             ops.append(None)
-    good = [i for i, op in enumerate(ops) if op is not None]
-    meshes: list = [None] * len(views)
-    if good:
-        built = poisson_reconstruct_batch(
-            [ops[i] for i in good],
-            mir7,
-            config.execution,
-            errors="keep",
-            tables=[views[i].observation.table for i in good],
-        )
-        for i, m in zip(good, built, strict=True):
-            meshes[i] = None if isinstance(m, SymjaxError) else _for_drawing(m)
+    built = poisson_meshes(ops, 7, config, [v.observation.table for v in views])
+    meshes = [None if isinstance(m, str) else _for_drawing(m) for m in built]
     fig = plt.figure(figsize=(11, 3.4 * len(views)))
     light = np.array([0.3, -0.6, 0.75])
     light /= np.linalg.norm(light)

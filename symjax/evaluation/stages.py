@@ -21,7 +21,7 @@ from symjax.evaluation.config import POISSON_DEPTHS, EvalConfig
 from symjax.evaluation.metric_jobs import MetricRunner
 from symjax.evaluation.records import MeshResult, PlaneResult, ViewRecord
 
-__all__ = ["process_batch", "start_batch"]
+__all__ = ["poisson_meshes", "process_batch", "start_batch"]
 
 
 def _plane_result(view, res) -> PlaneResult:
@@ -61,7 +61,7 @@ def _search(observations: list, cfg: EvalConfig) -> list:
     return [res[i] if ok else None for i, ok in enumerate(res.ok)]
 
 
-def _poisson(ops: list, depth: int, cfg: EvalConfig, tables: list) -> list:
+def poisson_meshes(ops: list, depth: int, cfg: EvalConfig, tables: list) -> list:
     """Meshes (or error messages) of a batch of oriented clouds at one depth, each cut at its
     view's table (an object stands on it: nothing of it is below)."""
     import dataclasses
@@ -135,7 +135,9 @@ def start_batch(
     built: dict[str, list] = {}  # method -> per view: a mesh or an error message
     for m in mir:
         t0 = time.perf_counter()
-        built[m] = _poisson(ops, POISSON_DEPTHS[m], config, [v.observation.table for v in views])
+        built[m] = poisson_meshes(
+            ops, POISSON_DEPTHS[m], config, [v.observation.table for v in views]
+        )
         share = (time.perf_counter() - t0) / n
         for i in range(n):
             timings[i][f"poisson{POISSON_DEPTHS[m]}"] = share

@@ -138,7 +138,8 @@ def search_batch(
         execution: Chunk sizes; no effect on the result.
 
     Returns:
-        A batched :class:`SymmetryResult` (leading axis = view; ``result[i]`` is view i).
+        A batched :class:`SymmetryResult` of numpy arrays, already on the host (leading axis =
+        view; ``result[i]`` is view i, indexed without a device round trip).
 
     Raises:
         InvalidInputError: Not a sequence of Observations, or no view could be searched.
