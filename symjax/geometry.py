@@ -176,9 +176,10 @@ def cloud_bucket(n: int, minimum: int = 1024) -> int:
     """The padded size of a point cloud for the symmetry search and the Poisson solve.
 
     Powers of two: eight sizes cover 1,000 to 200,000 points, so a robot meeting objects of every
-    size compiles each kernel a handful of times. The padding costs the search nothing (its
-    kernel stops at the last valid point, :mod:`symjax.symmetry.scoring`) and the Poisson solve
-    little (its grid, not its points, dominates at depth 7).
+    size compiles each kernel a handful of times. The padding costs the search at most an
+    eighth more (its kernel loops over slabs of points and stops after the last valid one,
+    :mod:`symjax.symmetry.scoring`) and the Poisson solve little (its grid, not its points,
+    dominates at depth 7).
 
     Args:
         n: Points in the cloud.

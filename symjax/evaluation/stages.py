@@ -21,7 +21,7 @@ from symjax.evaluation.config import POISSON_DEPTHS, EvalConfig
 from symjax.evaluation.metric_jobs import MetricRunner
 from symjax.evaluation.records import MeshResult, PlaneResult, ViewRecord
 
-__all__ = ["poisson_meshes", "process_batch", "start_batch"]
+__all__ = ["poisson_meshes", "start_batch"]
 
 
 def _plane_result(view, res) -> PlaneResult:
@@ -82,18 +82,6 @@ def poisson_meshes(ops: list, depth: int, cfg: EvalConfig, tables: list) -> list
         for i, m in zip(good, meshes, strict=True):
             out[i] = one_line(m) if isinstance(m, SymjaxError) else m
     return out
-
-
-def process_batch(views: list, config: EvalConfig, load_s: list[float]) -> list[ViewRecord]:
-    """Runs every stage on one batch of views; returns their records.
-
-    Args:
-        views: :class:`~symjax.datasets.View` objects.
-        config: The evaluation configuration.
-        load_s: Seconds each view took to load.
-    """
-    with MetricRunner(0) as runner:
-        return start_batch(views, config, load_s, runner)()
 
 
 def start_batch(

@@ -146,14 +146,14 @@ def poisson_reconstruct_batch(
     tables = [_check_table(t) for t in tables]
     out: list = [None] * len(views)
     # Each view keeps its own point bucket, so its rounding never depends on the batch; views
-    # of one bucket are solved in one call.
-    groups: dict[int, dict[int, tuple]] = {}
-    packed_of: dict[int, tuple] = {}
+    # of one bucket share calls.
+    groups: dict[int, list[int]] = {}  # point bucket -> views
+    packed: dict[int, tuple] = {}
     for i, t in enumerate(triples):
         try:
             n = cloud_bucket(max(len(t[0]), 1))
-            packed_of[i] = pack_views([t], cfg, n)
-            groups.setdefault(n, {})[i] = packed_of[i]
+            packed[i] = pack_views([t], cfg, n)
+            groups.setdefault(n, []).append(i)
         except SymjaxError as e:
             if errors == "raise":
                 raise
@@ -162,8 +162,7 @@ def poisson_reconstruct_batch(
     # first view: one compiled shape per point bucket, whatever the group sizes of a sequence
     # of batches. All calls are dispatched before the first grid is read.
     calls = []
-    for packed in groups.values():
-        idx = sorted(packed)
+    for idx in groups.values():
         width = max(2, ex.poisson_chunk_views or len(idx))
         for s in range(0, len(idx), width):
             part = idx[s : s + width]
@@ -174,7 +173,7 @@ def poisson_reconstruct_batch(
         grids = jax.device_get(grids)
         for j, i in enumerate(part):
             try:
-                out[i] = _mesh(grids[j], packed_of[i], cfg, tables[i])
+                out[i] = _mesh(grids[j], packed[i], cfg, tables[i])
             except SymjaxError as e:
                 if errors == "raise":
                     raise

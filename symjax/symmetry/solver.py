@@ -157,19 +157,22 @@ def search_batch(
                 f"search_batch item {i} is a {type(o).__name__}, expected a symjax.Observation"
             )
     errors: list[SymjaxError | None] = [None] * len(observations)
-    views: dict[int, ViewArrays] = {}
+    views: dict[int, ViewArrays] = {}  # packed, for the vmapped chunks
+    results: dict[int, SymmetryResult] = {}  # dispatched
     # One view a call (the default on a CPU): each call is dispatched as soon as its view is
     # packed, so the next view is packed while this one is scored.
     one_by_one = ex.symmetry_chunk_views == 1
     for i, o in enumerate(observations):
         try:
-            views[i] = prepare_view(o, cloud_bucket(len(np.asarray(o.points))))
+            v = prepare_view(o, cloud_bucket(len(np.asarray(o.points))))
         except SymjaxError as e:
             errors[i] = e
             continue
         if one_by_one:
-            views[i] = _search_jit(views[i], cfg, ex.symmetry_chunk_hypotheses)
-    if not views:
+            results[i] = _search_jit(v, cfg, ex.symmetry_chunk_hypotheses)
+        else:
+            views[i] = v
+    if not views and not results:
         raise InvalidInputError(
             "no view of the batch could be searched: "
             + "; ".join(f"view {i}: {e}" for i, e in enumerate(errors))
@@ -177,26 +180,20 @@ def search_batch(
     # Views of one image size and one point bucket share a call: each view keeps the shapes it
     # has alone, so float rounding never depends on the rest of the batch.
     groups: dict[tuple[int, int, int], list[int]] = {}
-    for i, v in views.items() if not one_by_one else ():
+    for i, v in views.items():
         groups.setdefault((*v.image.shape[:2], int(v.points.shape[0])), []).append(i)
-    single: dict[int, SymmetryResult] = {}
-    if one_by_one:  # views holds the dispatched results
-        for i, r in zip(views, jax.device_get(list(views.values())), strict=True):
-            try:
-                _checked_plane(r)
-                single[i] = r
-            except SymjaxError as e:
-                errors[i] = e
     for idx in groups.values():
         # Neighbours by point count share a vmap: the kernel's loop runs to the larger one's
         # last point, so pairing 4,000 with 8,000 points would score the first twice over.
         idx = sorted(idx, key=lambda i: int(np.sum(np.asarray(views[i].valid))))
-        for i, r in zip(idx, _run_group([views[i] for i in idx], cfg, ex), strict=True):
-            try:
-                _checked_plane(r)
-                single[i] = r
-            except SymjaxError as e:
-                errors[i] = e
+        results.update(zip(idx, _run_group([views[i] for i in idx], cfg, ex), strict=True))
+    single: dict[int, SymmetryResult] = {}
+    for i, r in zip(results, jax.device_get(list(results.values())), strict=True):
+        try:
+            _checked_plane(r)
+            single[i] = r
+        except SymjaxError as e:
+            errors[i] = e
     if not single:
         raise InvalidInputError(
             "no view of the batch has a plane: "
