@@ -112,6 +112,22 @@ def test_centroid_error_analytic(sphere):
     np.testing.assert_allclose(surface_centroid(sphere, 50000), 0.0, atol=1e-3)
 
 
+def test_exact_surface_centroid_is_the_area_weighted_mean_and_ignores_the_tessellation():
+    # A cone's lateral surface has its centroid at a third of the height (the base disc at 0).
+    cone = trimesh.creation.cone(radius=0.05, height=0.12, sections=256)
+    r, h = 0.05, 0.12
+    lateral, base = np.pi * r * np.hypot(r, h), np.pi * r * r
+    z_ref = lateral * (h / 3) / (lateral + base)
+    np.testing.assert_allclose(surface_centroid(cone), [0, 0, z_ref], atol=2e-5)
+    # Splitting every face keeps the surface, so the exact centroid stays to rounding while the
+    # sampled estimate (its samples are drawn by face) moves.
+    finer = cone.subdivide()
+    np.testing.assert_allclose(surface_centroid(finer), surface_centroid(cone), atol=1e-12)
+    sampled = [surface_centroid(m, 5000) for m in (cone, finer)]
+    assert np.abs(sampled[0] - sampled[1]).max() > 1e-5
+    np.testing.assert_allclose(surface_centroid(cone, 200_000), surface_centroid(cone), atol=5e-4)
+
+
 def test_rotated_reference_uses_oriented_box():
     ref = trimesh.creation.box(extents=EXTENTS)
     ref.apply_transform(trimesh.transformations.rotation_matrix(0.6, [0.3, 0.2, 1.0]))

@@ -99,7 +99,7 @@ class EvalConfig:
             "seed": self.seed,
             "camera": dataclasses.asdict(self.camera),
             "data": self.data,
-            "version": 3,  # 3: completions cut at the table
+            "version": 4,  # 3: completions cut at the table; 4: exact surface centroids
         }
         text = json.dumps(keep, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:12]

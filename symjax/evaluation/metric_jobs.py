@@ -38,7 +38,7 @@ def measure(method: str, truth, mesh, n_samples: int, diagonal: float | None) ->
         return MeshResult(method, True, n_faces=int(len(mesh.faces)))
     try:
         dev = mesh_deviation(truth, mesh, n_samples=n_samples)
-        centroid = centroid_error(truth, mesh, n_samples=n_samples, diagonal=diagonal)
+        centroid = centroid_error(truth, mesh, diagonal=diagonal)
     except SymjaxError as e:
         return MeshResult(method, False, error=one_line(e), n_faces=int(len(mesh.faces)))
     return MeshResult(

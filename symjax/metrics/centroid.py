@@ -11,24 +11,41 @@ from symjax.metrics.deviation import checked_mesh, sample_surface
 __all__ = ["centroid_error", "oriented_diagonal", "surface_centroid"]
 
 
-def surface_centroid(mesh: MeshLike, n_samples: int = 20000, seed: int = 0) -> np.ndarray:
-    """Mean of uniform surface samples of a mesh (independent of its vertex layout), (3,) m."""
-    return sample_surface(mesh, n_samples, seed).mean(axis=0)
+def surface_centroid(
+    mesh: MeshLike, n_samples: int | None = None, seed: int = 0
+) -> np.ndarray:
+    """Centroid of a mesh's surface (uniform density over its area), (3,) metres.
+
+    Args:
+        mesh: A ``trimesh.Trimesh``.
+        n_samples: None (the default): the exact value, the area-weighted mean of the triangle
+            centroids. An int: the mean of that many uniform surface samples (the estimate
+            symjax used before; it carries sampling noise, about 0.7 % of the box diagonal per
+            view at 5,000 samples, and any change of the faces redraws all samples).
+        seed: Sampling seed (with ``n_samples``).
+    """
+    if n_samples is not None:
+        return sample_surface(mesh, n_samples, seed).mean(axis=0)
+    mesh = checked_mesh(mesh)
+    tri = np.asarray(mesh.vertices, np.float64)[np.asarray(mesh.faces)]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    return (area @ tri.mean(axis=1)) / area.sum()
 
 
 def centroid_error(
     reference: MeshLike,
     mesh: MeshLike,
-    n_samples: int = 20000,
+    n_samples: int | None = None,
     seed: int = 0,
     diagonal: float | None = None,
 ) -> float:
-    """Distance between surface-sample centroids over the reference's oriented-box diagonal.
+    """Distance between surface centroids over the reference's oriented-box diagonal.
 
     Args:
         reference: Ground-truth ``trimesh.Trimesh``.
         mesh: The ``trimesh.Trimesh`` to evaluate.
-        n_samples: Uniform surface samples per mesh.
+        n_samples: None: exact surface centroids (see :func:`surface_centroid`); an int: the
+            mean of that many uniform surface samples of each mesh.
         seed: Sampling seed (the same for both meshes).
         diagonal: The reference's oriented-box diagonal, metres, when already known (it does
             not change under a rigid motion, so the views of one object can share it: finding
