@@ -31,7 +31,9 @@ class ExecutionConfig:
             A GPU wants many (16-128): a batch's views are grouped by point bucket and every
             group padded to this width.
         symmetry_chunk_hypotheses: Planes of one view scored at once (bounds the per-point
-            intermediates; 0 = all).
+            intermediates; 0 = all). A chunk larger than a search level's planes (70 at
+            level 0, 140 per refinement level of the default search) scores the level in
+            one pass: on a 2-core CPU 256 ran the default search in 57 ms, 64 in 69 ms.
         poisson_chunk_views: Views solved at once by the batched Poisson solver (0 = all); a
             batch is padded to at least this many views, so that every view is solved at the
             same vmap width whatever its batch (symmetry_chunk_views likewise).
@@ -45,7 +47,7 @@ class ExecutionConfig:
     """
 
     symmetry_chunk_views: int = 1
-    symmetry_chunk_hypotheses: int = 64
+    symmetry_chunk_hypotheses: int = 256
     poisson_chunk_views: int = 8
     simulation_chunk: int = 512
     simulation_threads: int = 0

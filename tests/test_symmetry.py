@@ -169,6 +169,19 @@ def test_mirroring_twice_is_identity(n, ang, off):
     np.testing.assert_allclose(np.asarray(reflect(jnp.asarray(p), normal, off))[:, 2], p[:, 2])
 
 
+@settings(max_examples=20, deadline=None)
+@given(m=st.integers(2, 5000), rows=st.integers(1, 3), seed=st.integers(0, 2**16))
+def test_percentiles_by_top_k_equal_jnp_percentile(m, rows, seed):
+    from symjax.symmetry.hypotheses import _percentiles
+
+    x = np.random.default_rng(seed).normal(size=(rows, m)).astype(np.float32)
+    lo, hi = _percentiles(jnp.asarray(x), 2.0, 98.0)
+    ref = np.asarray(jnp.percentile(jnp.asarray(x), jnp.array([2.0, 98.0]), axis=-1))
+    scale = np.abs(x).max()
+    np.testing.assert_allclose(np.asarray(lo), ref[0], rtol=0, atol=4e-6 * scale)
+    np.testing.assert_allclose(np.asarray(hi), ref[1], rtol=0, atol=4e-6 * scale)
+
+
 def jax_ranks_raise():
     import jax
 

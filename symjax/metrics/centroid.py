@@ -11,9 +11,7 @@ from symjax.metrics.deviation import checked_mesh, sample_surface
 __all__ = ["centroid_error", "oriented_diagonal", "surface_centroid"]
 
 
-def surface_centroid(
-    mesh: MeshLike, n_samples: int | None = None, seed: int = 0
-) -> np.ndarray:
+def surface_centroid(mesh: MeshLike, n_samples: int | None = None, seed: int = 0) -> np.ndarray:
     """Centroid of a mesh's surface (uniform density over its area), (3,) metres.
 
     Args:
