@@ -34,9 +34,12 @@ class ExecutionConfig:
             intermediates; 0 = all). A chunk larger than a search level's planes (70 at
             level 0, 140 per refinement level of the default search) scores the level in
             one pass: on a 2-core CPU 256 ran the default search in 57 ms, 64 in 69 ms.
-        poisson_chunk_views: Views solved at once by the batched Poisson solver (0 = all); a
-            batch is padded to at least this many views, so that every view is solved at the
-            same vmap width whatever its batch (symmetry_chunk_views likewise).
+        poisson_chunk_views: Views solved at once by the batched Poisson solver (0 = all).
+            1 (the default, for a CPU): the single-view kernel, several views side by side in
+            threads (one per core, at most 8), each meshed as soon as it is solved. >= 2 (a
+            GPU): vmapped chunks; a batch is padded to at least this many views, so that every
+            view is solved at the same vmap width whatever its batch (symmetry_chunk_views
+            likewise).
         simulation_chunk: Candidates per jitted MJX call; larger batches are split.
         simulation_threads: C MuJoCo rollout threads (0 = one per core).
         eval_batch_size: Views per batch through the evaluation's search and Poisson solve.
@@ -48,7 +51,7 @@ class ExecutionConfig:
 
     symmetry_chunk_views: int = 1
     symmetry_chunk_hypotheses: int = 256
-    poisson_chunk_views: int = 8
+    poisson_chunk_views: int = 1
     simulation_chunk: int = 512
     simulation_threads: int = 0
     eval_batch_size: int = 16
