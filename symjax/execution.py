@@ -25,9 +25,10 @@ class ExecutionConfig:
 
     Attributes:
         symmetry_chunk_views: Views scored at once by :func:`symjax.symmetry.search_batch`
-            (0 = all of a point bucket). 1: one view a call, the single-view kernel, each call
-            dispatched as its view is packed; the fastest on a CPU, where one view already
-            fills the cores (32 benchmark views: 23 ms a view against 33 ms at 2, 2-core CPU).
+            (0 = all of a point bucket). 1: one view a call, the single-view kernel, several
+            views side by side in threads (one per core, at most 8); the fastest on a CPU
+            (32 benchmark views: 23 ms a view against 33 ms vmapped 2 at a time, 2-core CPU,
+            before the threads).
             A GPU wants many (16-128): a batch's views are grouped by point bucket and every
             group padded to this width.
         symmetry_chunk_hypotheses: Planes of one view scored at once (bounds the per-point

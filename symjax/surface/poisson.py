@@ -201,11 +201,15 @@ def _one_by_one(packed: dict, cfg: PoissonConfig, tables: list, errors: str, out
 
     order = list(packed)
     threads = max(1, min(len(order), os.cpu_count() or 1, MAX_THREADS))
-    with ThreadPoolExecutor(threads) as pool:
+    pool = ThreadPoolExecutor(threads)
+    try:
         for i, mesh in zip(order, pool.map(job, order), strict=True):
             if isinstance(mesh, SymjaxError) and errors == "raise":
                 raise mesh
             out[i] = mesh
+    finally:
+        # Ctrl-C: the views not started are dropped, not solved to the end.
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _mesh_or_error(grid, packed: tuple, cfg: PoissonConfig, table, errors: str):

@@ -115,6 +115,42 @@ def _run_group(views: list[ViewArrays], cfg: SymmetryConfig, ex: ExecutionConfig
     return out[: len(views)]
 
 
+#: Views searched side by side by :func:`_one_by_one`, at most.
+MAX_THREADS = 8
+
+
+def _one_by_one(observations: list, cfg: SymmetryConfig, ex: ExecutionConfig, errors: list):
+    """Host results of the single-view kernel, several views at a time in threads.
+
+    XLA:CPU runs one program's sorts, loops and small ops on one core, and async dispatch runs
+    the calls one after the other, so views packed and searched side by side fill the cores
+    (128 benchmark views on 2 cores: 1.32 s against 1.74 s dispatched in turn).
+    """
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
+    def job(o: Observation):
+        try:
+            v = prepare_view(o, cloud_bucket(len(np.asarray(o.points))))
+        except SymjaxError as e:
+            return e
+        return jax.device_get(_search_jit(v, cfg, ex.symmetry_chunk_hypotheses))
+
+    threads = max(1, min(len(observations), os.cpu_count() or 1, MAX_THREADS))
+    results = {}
+    pool = ThreadPoolExecutor(threads)
+    try:
+        for i, r in enumerate(pool.map(job, observations)):
+            if isinstance(r, SymjaxError):
+                errors[i] = r
+            else:
+                results[i] = r
+    finally:
+        # Ctrl-C: the views not started are dropped, not searched to the end.
+        pool.shutdown(wait=True, cancel_futures=True)
+    return results
+
+
 def search_batch(
     observations: Sequence[Observation],
     config: SymmetryConfig | None = None,
@@ -123,9 +159,9 @@ def search_batch(
     """Searches all hypotheses of all views, one jitted call per image size and point bucket.
 
     Each view is padded to its own point bucket (:func:`symjax.geometry.cloud_bucket`). With
-    ``execution.symmetry_chunk_views == 1`` (the default: fastest on a CPU, where one view
-    already fills the cores) each view is one call of the kernel :func:`search` runs, dispatched
-    as soon as it is packed, and its result is ``search(obs)``'s bit for bit. With a chunk of
+    ``execution.symmetry_chunk_views == 1`` (the default, for a CPU) each view is one call of
+    the kernel :func:`search` runs, several views side by side in threads (one per core, at
+    most 8), and its result is ``search(obs)``'s bit for bit. With a chunk of
     ``c >= 2`` (a GPU) views that share an image size and a bucket are scored ``c`` at a time
     by one ``vmap``. A view that cannot be searched (NaN points, no spread, no plane found) does not
     stop the batch: ``result.ok[i]`` is False, ``result.errors[i]`` says why, its float fields
@@ -159,19 +195,14 @@ def search_batch(
     errors: list[SymjaxError | None] = [None] * len(observations)
     views: dict[int, ViewArrays] = {}  # packed, for the vmapped chunks
     results: dict[int, SymmetryResult] = {}  # dispatched
-    # One view a call (the default on a CPU): each call is dispatched as soon as its view is
-    # packed, so the next view is packed while this one is scored.
-    one_by_one = ex.symmetry_chunk_views == 1
-    for i, o in enumerate(observations):
-        try:
-            v = prepare_view(o, cloud_bucket(len(np.asarray(o.points))))
-        except SymjaxError as e:
-            errors[i] = e
-            continue
-        if one_by_one:
-            results[i] = _search_jit(v, cfg, ex.symmetry_chunk_hypotheses)
-        else:
-            views[i] = v
+    if ex.symmetry_chunk_views == 1:
+        results = _one_by_one(observations, cfg, ex, errors)
+    else:
+        for i, o in enumerate(observations):
+            try:
+                views[i] = prepare_view(o, cloud_bucket(len(np.asarray(o.points))))
+            except SymjaxError as e:
+                errors[i] = e
     if not views and not results:
         raise InvalidInputError(
             "no view of the batch could be searched: "
