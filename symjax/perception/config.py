@@ -76,6 +76,9 @@ class SegmentationConfig:
         max_object_extent: A cluster wider than this (m) on the table is flagged as possibly
             several touching objects.
         mask_fill: Fill of each object's mask, see :meth:`symjax.Observation.from_points`.
+        claim_dropouts_px: Pixels without depth within this many pixels of an object whose
+            viewing ray passes through the object's column (footprint hull x height) join its
+            mask, not its points (:mod:`symjax.perception.dropouts`); 0 = off.
         seed: Random seed of the RANSAC sampling (results are deterministic).
     """
 
@@ -115,6 +118,7 @@ class SegmentationConfig:
     touch_px: int = 3
     max_object_extent: float = 0.4
     mask_fill: str = "close"
+    claim_dropouts_px: int = 0
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -187,6 +191,10 @@ class SegmentationConfig:
             raise ConfigError("workspace_min must be below workspace_max on every axis (3,)")
         if self.fill_holes_px < 0:
             raise ConfigError(f"fill_holes_px must be >= 0, got {self.fill_holes_px}")
+        if self.claim_dropouts_px < 0:
+            raise ConfigError(
+                f"claim_dropouts_px must be >= 0 pixels (0 = off), got {self.claim_dropouts_px}"
+            )
         if self.border_px < 0 or self.touch_px < 0:
             raise ConfigError("border_px and touch_px must be >= 0")
         if self.mask_fill not in ("none", "close", "hull"):

@@ -20,6 +20,7 @@ from symjax.observation import Observation, fill_mask
 from symjax.perception.clusters import cloud_clusters, grid_outliers, image_clusters
 from symjax.perception.config import SegmentationConfig
 from symjax.perception.creases import colour_creases, crease_concavity, crease_mask, lab_image
+from symjax.perception.dropouts import claim_dropouts
 from symjax.perception.object_info import ObjectInfo, describe_objects, occluder_depth
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
 from symjax.perception.support import join_supported
@@ -190,19 +191,34 @@ def _segment_depth(
     objects = []
     n_obj = int(labels.max()) + 1
     keep = np.full(max(n_obj, 1), -1, np.int32)
+    found = []  # (label, its pixels' flat indices)
     for k, box in enumerate(find_objects(labels + 1, max_label=n_obj)):
         if box is None:
             continue
-        m = np.zeros(hw, bool)
-        m[box] = labels[box] == k
-        r, c = np.nonzero(m[box])
+        r, c = np.nonzero(labels[box] == k)
         ids = (r + box[0].start) * hw[1] + (c + box[1].start)
-        if len(ids) < 10:
-            continue
+        if len(ids) >= 10:
+            found.append((k, ids))
+    claimed = np.full(hw, -1, np.int32)
+    if cfg.claim_dropouts_px > 0 and found and cand.any():
+        region = labels[sl].copy()
+        lut = np.full(n_obj, -1, np.int32)
+        lut[[k for k, _ in found]] = np.arange(len(found))
+        region = np.where(region >= 0, lut[np.maximum(region, 0)], -1)
+        own = claim_dropouts(region, valid[sl], rays[sl] @ R.T, t, [world(i) for _, i in found],
+                             n, float(table.offset), cfg.claim_dropouts_px)  # fmt: skip
+        claimed[sl] = np.where(own >= 0, np.array([k for k, _ in found])[np.maximum(own, 0)], -1)
+    for k, ids in found:
+        m = np.zeros(hw, bool)
+        m.reshape(-1)[ids] = True
         keep[k] = len(objects)
         objects.append(
             Observation.create(
-                world(ids), camera, table, fill_mask(m, cfg.mask_fill), np.where(m, depth, 0.0)
+                world(ids),
+                camera,
+                table,
+                fill_mask(m | (claimed == k), cfg.mask_fill),
+                np.where(m, depth, 0.0),
             )
         )
     labels = np.where(labels >= 0, keep[np.maximum(labels, 0)], -1).astype(np.int32)

@@ -1,0 +1,117 @@
+"""Pixels without depth that can only show an object: its mask claims them.
+
+A stereo camera measures nothing on surfaces seen at a grazing angle (the top of a box from a low
+head), and little along outlines. Those pixels are part of the object's silhouette: left out of
+its mask, the symmetry search would take mirrored points that land there for visible empty space
+(Eq. 3). A pixel without depth is claimed by an object when its viewing ray passes through the
+object's column, the convex hull of its points' footprint on the table extruded from the table
+to their highest point, and it is near the object in the image; of several columns the nearest
+one along the ray claims it. Objects keep only their measured pixels as points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["claim_dropouts"]
+
+
+def _column(points: np.ndarray, basis: np.ndarray, offset: float):
+    """The footprint hull (V, 2) of the points in the table basis (counter-clockwise) and their
+    top height, metres. (A stack of hulls per height band follows a bottle's neck but loses the
+    tops without depth: 4 bands scored a lower mean IoU on the clutter scenes, 0.950 vs 0.957.)"""
+    import cv2
+
+    uvh = points @ basis.T + np.array([0.0, 0.0, offset])
+    hull = cv2.convexHull(uvh[:, :2].astype(np.float32), clockwise=False)
+    return hull.reshape(-1, 2).astype(np.float64), float(uvh[:, 2].max())
+
+
+def _entry(
+    hull: np.ndarray, top: float, o_uvh: np.ndarray, d_uvh: np.ndarray, floor: float = 0.0
+) -> np.ndarray:
+    """Distance along each ray (R,) at which it enters a prism, inf where it misses it.
+
+    Cyrus-Beck clipping of the rays ``o + s d`` (table basis: u, v, height; o (3,), d (R, 3))
+    against the slab ``floor <= h <= top`` and the hull's half planes.
+    """
+    lo = np.zeros(len(d_uvh))
+    hi = np.full(len(d_uvh), np.inf)
+
+    def clip(num: np.ndarray, den: np.ndarray) -> None:
+        # Keep s with num + s * den >= 0.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = -num / den
+        np.maximum(lo, np.where(den > 0, s, -np.inf), out=lo)
+        np.minimum(hi, np.where(den < 0, s, np.inf), out=hi)
+        hi[(den == 0) & (num < 0)] = -np.inf
+
+    clip(np.full(len(d_uvh), o_uvh[2] - floor), d_uvh[:, 2])  # above the floor
+    clip(np.full(len(d_uvh), top - o_uvh[2]), -d_uvh[:, 2])  # below the top
+    for a, b in zip(hull, np.roll(hull, -1, axis=0), strict=True):
+        inward = np.array([-(b - a)[1], (b - a)[0]])  # left of a counter-clockwise edge
+        clip(np.full(len(d_uvh), inward @ (o_uvh[:2] - a)), d_uvh[:, :2] @ inward)
+    return np.where(lo <= hi, lo, np.inf)
+
+
+def claim_dropouts(
+    labels: np.ndarray,
+    valid: np.ndarray,
+    rays_world: np.ndarray,
+    origin: np.ndarray,
+    points: list[np.ndarray],
+    normal: np.ndarray,
+    offset: float,
+    max_px: int,
+) -> np.ndarray:
+    """The object each pixel without depth shows, where only one can be shown.
+
+    Args:
+        labels: (H, W) int object index per measured pixel, -1 elsewhere.
+        valid: (H, W) bool, pixels with a depth measurement.
+        rays_world: (H, W, 3) viewing directions in the world frame (any length).
+        origin: (3,) camera centre, world frame, metres.
+        points: Per object, its (N_k, 3) measured points, world frame, metres.
+        normal: (3,) unit table normal (up); heights are ``normal . x + offset``.
+        offset: Table plane offset, metres.
+        max_px: Claimed pixels lie within this many pixels of the object's measured pixels.
+
+    Returns:
+        (H, W) int: the claiming object of each pixel without depth, -1 where none claims it
+        (and on every measured pixel).
+    """
+    import cv2
+
+    out = np.full(labels.shape, -1, np.int32)
+    if not points or max_px <= 0:
+        return out
+    n = np.asarray(normal, np.float64)
+    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    basis = np.stack([e1, e2, n])
+    o = basis @ np.asarray(origin, np.float64) + np.array([0.0, 0.0, offset])
+    best = np.full(labels.shape, np.inf)
+    free = ~valid & (labels < 0)
+    H, W = labels.shape
+    for k, p in enumerate(points):
+        rows, cols = np.nonzero(labels == k)
+        if len(p) < 3 or len(rows) == 0:
+            continue
+        hull, top = _column(np.asarray(p, np.float64), basis, offset)
+        if len(hull) < 3 or top <= 0:
+            continue
+        # Within max_px of this object in the image: its box and margin only.
+        r0, r1 = max(rows.min() - max_px, 0), min(rows.max() + max_px + 1, H)
+        c0, c1 = max(cols.min() - max_px, 0), min(cols.max() + max_px + 1, W)
+        crop = (slice(r0, r1), slice(c0, c1))
+        near = cv2.distanceTransform((labels[crop] != k).astype(np.uint8), cv2.DIST_L2, 3)
+        rr, cc = np.nonzero(free[crop] & (near <= max_px))
+        if len(rr) == 0:
+            continue
+        rr, cc = rr + r0, cc + c0
+        s = _entry(hull, top, o, rays_world[rr, cc].astype(np.float64) @ basis.T)
+        take = s < best[rr, cc]
+        best[rr[take], cc[take]] = s[take]
+        out[rr[take], cc[take]] = k
+    return out
