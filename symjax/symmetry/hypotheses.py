@@ -31,7 +31,8 @@ def _initial_plane(view: ViewArrays):
     c = dot(p, w) / cnt
     d = p - c[:, None]
     d = d - n[:, None] * dot(n, d)[None, :]  # projection onto the table plane
-    cov = dot(d * w[None, :], d.T) / cnt
+    # Entry by entry as products with the weights: the (3, N) x (N, 3) product runs slower.
+    cov = jnp.stack([jnp.stack([dot(d[i] * d[j], w) for j in range(3)]) for i in range(3)]) / cnt
     _, vecs = jnp.linalg.eigh(cov)
     e_a, e_b = vecs[:, 2], vecs[:, 1]  # major, minor in-plane eigenvectors
     v = view.t_wc - c  # inverse viewing direction
@@ -51,8 +52,9 @@ def _initial_plane(view: ViewArrays):
 def _percentiles(x, low: float, high: float):
     """``jnp.percentile(x, [low, high], axis=-1)`` (linear interpolation) for rows x (R, M).
 
-    The order statistics each side come from ``top_k``, which XLA:CPU runs in under half the
-    time of the full sort ``jnp.percentile`` does; the interpolation is jnp's (equal to float32
+    One sort of the rows as int32 keys (the float bits, negatives flipped, order the same):
+    XLA:CPU sorts integers 4x faster than floats with their NaN-aware comparator (a tenth of
+    the paper's search went to the float sort). The interpolation is jnp's (equal to float32
     rounding).
     """
     m = x.shape[-1]
@@ -63,13 +65,15 @@ def _percentiles(x, low: float, high: float):
         hw = np.float32(pos - np.float32(i))
         return i, min(int(np.ceil(pos)), m - 1), hw, np.float32(1.0) - hw
 
-    i0, j0, hw0, lw0 = at(low)
-    smallest = -jax.lax.top_k(-x, j0 + 1)[0]  # ascending: smallest[k] = sorted[k]
-    i1, j1, hw1, lw1 = at(high)
-    largest = jax.lax.top_k(x, m - i1)[0]  # descending: largest[k] = sorted[m - 1 - k]
-    lo = smallest[..., i0] * lw0 + smallest[..., j0] * hw0
-    hi = largest[..., m - 1 - i1] * lw1 + largest[..., m - 1 - j1] * hw1
-    return lo, hi
+    bits = jax.lax.bitcast_convert_type(x, jnp.int32)
+    keys = jnp.where(bits < 0, bits ^ 0x7FFFFFFF, bits)
+    srt = jax.lax.sort(keys, dimension=x.ndim - 1)
+    srt = jax.lax.bitcast_convert_type(jnp.where(srt < 0, srt ^ 0x7FFFFFFF, srt), x.dtype)
+    out = []
+    for q in (low, high):
+        i, j, hw, lw = at(q)
+        out.append(srt[..., i] * lw + srt[..., j] * hw)
+    return out[0], out[1]
 
 
 def _valid_sample(valid, size: int = SAMPLE_POINTS):
@@ -79,10 +83,19 @@ def _valid_sample(valid, size: int = SAMPLE_POINTS):
     keeps their sorts and sweeps cheap for 40,000-point views.
     """
     size = min(size, valid.shape[0])
-    rank = jnp.cumsum(valid.astype(jnp.int32))
-    n = jnp.maximum(rank[-1], 1)
-    want = (jnp.arange(size) * n) // size + 1
-    return jnp.clip(jnp.searchsorted(rank, want), 0, valid.shape[0] - 1)
+    count = valid.sum()
+    n = jnp.maximum(count, 1)
+    want = (jnp.arange(size) * n) // size  # ranks among the valid points
+
+    def scattered():
+        rank = jnp.cumsum(valid.astype(jnp.int32))
+        return jnp.searchsorted(rank, want + 1)
+
+    # Packed views hold their valid points first (padding after): the rank is the index, and
+    # the binary search (a loop of 16 steps, a tenth of the paper's search) is not needed.
+    prefix = jnp.all(valid == (jnp.arange(valid.shape[0]) < count))
+    idx = jax.lax.cond(prefix, lambda: want.astype(jnp.int32), scattered)
+    return jnp.clip(idx, 0, valid.shape[0] - 1)
 
 
 def _box_angle(view: ViewArrays, c, m0, side, n_sweep: int = 90):

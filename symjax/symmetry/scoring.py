@@ -5,7 +5,6 @@ Kernels for one view and one hypothesis, batched with ``vmap`` by the callers.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 
 import jax
@@ -23,7 +22,10 @@ __all__ = ["point_terms", "reflect", "score_planes"]
 
 def _project(view: ViewArrays, q):
     """Pixel coordinates (N, 2) and depth (N,) of world points q (N, 3)."""
-    xc = (q - view.t_wc[None, :]) @ view.R_wc
+    # Column by column: XLA:CPU's (N, 3) x (3, 3) matrix product is 4x slower.
+    d = q - view.t_wc[None, :]
+    R = view.R_wc
+    xc = jnp.stack([d[:, 0] * R[0, k] + d[:, 1] * R[1, k] + d[:, 2] * R[2, k] for k in range(3)], 1)
     z = xc[:, 2]
     zs = jnp.where(z > 1e-6, z, 1e-6)
     K = view.K
@@ -61,12 +63,15 @@ def point_terms(view: ViewArrays, q, config: SymmetryConfig):
     return delta1, delta2, inside
 
 
-def _mirror_pixels(view: ViewArrays, cam_points, normal, offset):
+def _mirror_pixels(view: ViewArrays, rows, normal, offset):
     """Pixel lookup of the points mirrored across one plane (the kernel's first stage).
 
     Args:
         view: The view.
-        cam_points: (N, 3) the observed points in the camera frame (shared by all planes).
+        rows: ``(world, camera)``, each (3, N): the observed points' coordinates as rows, in
+            the world and the camera frame (shared by all planes). As rows the plane distance
+            is three multiply-adds fused into the projection; as an (N, 3) matrix product with
+            the normals it was a pass of its own (a tenth of the kernel).
         normal: (3,) unit plane normal (world).
         offset: () plane offset, metres.
 
@@ -77,12 +82,13 @@ def _mirror_pixels(view: ViewArrays, cam_points, normal, offset):
         in-image pixel where it projects outside, -inf behind the camera.
     """
     H, W = view.image.shape[0], view.image.shape[1]
+    p, c = rows
     # Mirroring is affine, so in the camera frame q = R^T (p - t) - 2 (n . p - d) R^T n.
-    dist = view.points @ normal - offset
+    dist = normal[0] * p[0] + normal[1] * p[1] + normal[2] * p[2] - offset
     a = normal @ view.R_wc
-    x = cam_points[:, 0] - 2.0 * dist * a[0]
-    y = cam_points[:, 1] - 2.0 * dist * a[1]
-    z = cam_points[:, 2] - 2.0 * dist * a[2]
+    x = c[0] - 2.0 * dist * a[0]
+    y = c[1] - 2.0 * dist * a[1]
+    z = c[2] - 2.0 * dist * a[2]
     front = z > 1e-6
     iz = 1.0 / jnp.where(front, z, 1e-6)
     K = view.K
@@ -98,11 +104,20 @@ def _mirror_pixels(view: ViewArrays, cam_points, normal, offset):
     return rr.astype(jnp.int32) * W + cc.astype(jnp.int32), depth_or_extra
 
 
-def _unprojectable(view: ViewArrays, normals, offsets):
+def _rows(view: ViewArrays):
+    """The points as rows (3, N), world and camera frame (see :func:`_mirror_pixels`)."""
+    p = view.points.T
+    d = p - view.t_wc[:, None]
+    R = view.R_wc
+    # Three multiply-adds a row: a (3, 3) x (3, N) matrix product costs several times more.
+    c = jnp.stack([R[0, k] * d[0] + R[1, k] * d[1] + R[2, k] * d[2] for k in range(3)])
+    return p, c
+
+
+def _unprojectable(n_points: int, normals, dtype):
     """Stage-one output for hypotheses that cannot be scored (non-finite input): every mirrored
     point counts as behind the camera, so the hypothesis gets the worst vote, never NaN."""
-    shape = (normals.shape[0], view.points.shape[0])
-    dtype = view.points.dtype
+    shape = (normals.shape[0], n_points)
     return jnp.zeros(shape, jnp.int32), jnp.full(shape, -jnp.inf, dtype)
 
 
@@ -133,8 +148,9 @@ def score_planes(
         gate = jnp.isfinite(normals).all() & jnp.isfinite(offsets).all()
         gate = gate & jnp.isfinite(view.points).all()
     P = normals.shape[0]
+    rows = _rows(view)
     if chunk == 0 or P <= chunk:
-        outside, inside = _score_chunk(view, normals, offsets, config, gate)
+        outside, inside = _score_chunk(view, rows, normals, offsets, config, gate)
     else:
         # Chunks keep the (hypotheses x points) intermediates in cache: 1,000 planes x 40,000
         # points would otherwise stream 160 MB per array through memory.
@@ -144,7 +160,7 @@ def score_planes(
         n = jnp.concatenate([normals, jnp.repeat(normals[-1:], pad, axis=0)])
         d = jnp.concatenate([offsets, jnp.repeat(offsets[-1:], pad, axis=0)])
         outside, inside = jax.lax.map(
-            lambda nd: _score_chunk(view, nd[0], nd[1], config, gate),
+            lambda nd: _score_chunk(view, rows, nd[0], nd[1], config, gate),
             (n.reshape(-1, size, 3), d.reshape(-1, size)),
         )
         outside, inside = outside.reshape(-1)[:P], inside.reshape(-1)[:P]
@@ -159,7 +175,7 @@ SLABS = 8
 MIN_SLAB = 1024
 
 
-def _score_chunk(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
+def _score_chunk(view: ViewArrays, rows, normals, offsets, cfg: SymmetryConfig, gate):
     """:func:`score_planes` for one chunk of planes: ``(outside, inside)``, each (P,)."""
     N = view.points.shape[0]
     slab = max(MIN_SLAB, N // SLABS)
@@ -170,12 +186,9 @@ def _score_chunk(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
     zero = jnp.zeros(normals.shape[0], view.points.dtype)
 
     def step(k, acc):
-        part = dataclasses.replace(
-            view,
-            points=jax.lax.dynamic_slice_in_dim(view.points, k * slab, slab),
-            valid=jax.lax.dynamic_slice_in_dim(view.valid, k * slab, slab),
-        )
-        sums = _slab_sums(part, normals, offsets, cfg, gate)
+        part = tuple(jax.lax.dynamic_slice_in_dim(r, k * slab, slab, axis=1) for r in rows)
+        valid = jax.lax.dynamic_slice_in_dim(view.valid, k * slab, slab)
+        sums = _slab_sums(view, part, valid, normals, offsets, cfg, gate)
         return tuple(a + b for a, b in zip(acc, sums, strict=True))
 
     s_out, s_in, n_in = jax.lax.fori_loop(0, used, step, (zero, zero, zero))
@@ -186,21 +199,23 @@ def _score_chunk(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
     return s_out / jnp.maximum(n_out, 1.0), s_in / jnp.maximum(n_in, 1.0)
 
 
-def _slab_sums(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
-    """Sums over one slab of points, per plane (P,): outside ``delta_1``, inside ``delta_2``
-    and the number of valid points that project inside the mask."""
+def _slab_sums(view: ViewArrays, rows, valid, normals, offsets, cfg: SymmetryConfig, gate):
+    """Sums over one slab of points (``rows`` as :func:`_mirror_pixels`, ``valid`` (S,)), per
+    plane (P,): outside ``delta_1``, inside ``delta_2`` and the number of valid points that
+    project inside the mask."""
     H, W = view.image.shape[0], view.image.shape[1]
-    cam_points = (view.points - view.t_wc[None, :]) @ view.R_wc
 
     def project(normals, offsets):
-        return jax.vmap(_mirror_pixels, in_axes=(None, None, 0, 0))(
-            view, cam_points, normals, offsets
-        )
+        return jax.vmap(_mirror_pixels, in_axes=(None, None, 0, 0))(view, rows, normals, offsets)
 
     # The conditional is a fusion boundary: without it XLA:CPU fuses the projection into the
     # gather and into every reduction below and recomputes it in each (measured 3-6x slower).
     index, zx = jax.lax.cond(
-        gate, project, lambda n, o: _unprojectable(view, n, o), normals, offsets
+        gate,
+        project,
+        lambda n, o: _unprojectable(valid.shape[0], n, rows[0].dtype),
+        normals,
+        offsets,
     )
     pix = jnp.take(view.image.reshape(H * W, 2), index, axis=0, mode="clip")
     extra = jnp.maximum(-zx, 0.0)
@@ -215,7 +230,7 @@ def _slab_sums(view: ViewArrays, normals, offsets, cfg: SymmetryConfig, gate):
     obs_depth = pix[..., 1]
     ahead = inside & (obs_depth > 0) & (zx < obs_depth - cfg.depth_tolerance)
     delta2 = jnp.where(ahead, obs_depth - zx, 0.0)
-    valid = view.valid.astype(dist.dtype)
+    valid = valid.astype(dist.dtype)
     # Sums over points as products with the validity vector: XLA:CPU runs a reduction with the
     # per-point terms fused into it as scalar code (measured 7x slower than a vectorised loop
     # that writes the terms, then a matrix-vector product over them).
