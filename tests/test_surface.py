@@ -125,27 +125,6 @@ def test_poisson_batch_matches_single(box_data, strict_ranks):
     np.testing.assert_allclose(batch[2].centroid - batch[0].centroid, 0.3, atol=1e-4)
 
 
-def test_poisson_batch_one_by_one_is_the_single_kernel_and_keeps_errors_in_place():
-    # The CPU default (views solved side by side in threads) runs the kernel of
-    # poisson_reconstruct: the same mesh bit for bit, whatever the order and the other views.
-    cfg = PoissonConfig(depth=5)
-    views = [sphere_samples(3000 + 500 * k, 0.04 + 0.005 * k, seed=k) for k in range(5)]
-    views = [(p + 0.1 * k, n) for k, (p, n) in enumerate(views)]
-    bad = (np.zeros((3, 3)), np.ones((3, 3)))
-    batch = poisson_reconstruct_batch([views[0], bad, *views[1:]], cfg, errors="keep")
-    assert isinstance(batch[1], SymjaxError)
-    meshes = [batch[0], *batch[2:]]
-    for (p, n), mb in zip(views, meshes, strict=True):
-        single = poisson_reconstruct(p, n, config=cfg)
-        np.testing.assert_array_equal(mb.vertices, single.vertices)
-        np.testing.assert_array_equal(mb.faces, single.faces)
-    reverse = poisson_reconstruct_batch(views[::-1], cfg)
-    for a, b in zip(meshes, reverse[::-1], strict=True):
-        np.testing.assert_array_equal(a.vertices, b.vertices)
-    with pytest.raises(SymjaxError):
-        poisson_reconstruct_batch([views[0], bad], cfg)
-
-
 def test_poisson_open_sheet_still_closed(strict_ranks):
     # A hemisphere only (a partial view): the surface must still come out closed.
     p, n = sphere_samples(4000, 0.05, seed=3)
