@@ -171,7 +171,7 @@ def test_mirroring_twice_is_identity(n, ang, off):
 
 @settings(max_examples=20, deadline=None)
 @given(m=st.integers(2, 5000), rows=st.integers(1, 3), seed=st.integers(0, 2**16))
-def test_percentiles_by_top_k_equal_jnp_percentile(m, rows, seed):
+def test_percentiles_by_integer_sort_equal_jnp_percentile(m, rows, seed):
     from symjax.symmetry.hypotheses import _percentiles
 
     x = np.random.default_rng(seed).normal(size=(rows, m)).astype(np.float32)
