@@ -51,8 +51,8 @@ def point_terms(view: ViewArrays, q, config: SymmetryConfig):
     # Outside the image, the distance transform continues: add the distance to the border pixel.
     extra = jnp.hypot(col - cc, row - rr)
     pix = view.image[rr.astype(jnp.int32), cc.astype(jnp.int32)]
-    dist_px = pix[:, 0] + extra
-    obs_depth = pix[:, 1]
+    dist_px = jnp.maximum(-pix, 0.0) + extra
+    obs_depth = jnp.maximum(pix, 0.0)
     in_front_of_cam = z > 1e-6
     inside = (dist_px <= 0.0) & in_front_of_cam
     # A mirrored point behind the camera contradicts any hypothesis: the worst outside distance.
@@ -217,17 +217,17 @@ def _slab_sums(view: ViewArrays, rows, valid, normals, offsets, cfg: SymmetryCon
         normals,
         offsets,
     )
-    pix = jnp.take(view.image.reshape(H * W, 2), index, axis=0, mode="clip")
+    pix = jnp.take(view.image.reshape(H * W), index, mode="clip")
     extra = jnp.maximum(-zx, 0.0)
     front = zx > -jnp.inf
-    dist = pix[..., 0] + extra
+    dist = jnp.maximum(-pix, 0.0) + extra
     # The distance transform is 0 on the mask and >= 1 px off it: inside means dist == 0, where
     # delta_1 is 0; delta_2 is 0 outside.
     inside = (dist <= 0.0) & front
     # A mirrored point behind the camera contradicts any hypothesis: the worst outside distance.
     far = jnp.asarray(H * H + W * W, dist.dtype)
     delta1 = jnp.where(front, dist * dist, far)
-    obs_depth = pix[..., 1]
+    obs_depth = jnp.maximum(pix, 0.0)
     ahead = inside & (obs_depth > 0) & (zx < obs_depth - cfg.depth_tolerance)
     delta2 = jnp.where(ahead, obs_depth - zx, 0.0)
     valid = valid.astype(dist.dtype)

@@ -25,8 +25,10 @@ class ViewArrays:
         R_wc: (3, 3) camera-to-world rotation.
         t_wc: (3,) camera centre, metres.
         K: (3, 3) intrinsics, pixels.
-        image: (H, W, 2) per pixel ``[distance to the mask (pixels, 0 inside), observed depth
-            (metres, 0 = none)]``, packed so that one gather serves both terms.
+        image: (H, W) per pixel, where the object may be seen (its mask and the occluders in
+            front of it): the observed depth, metres (0 = no measurement); elsewhere minus the
+            distance to those pixels, pixels (>= 1). One channel, so that one 4-byte gather
+            serves both terms of Eq. 3 (the depth only matters where the distance is 0).
     """
 
     points: Any
@@ -110,5 +112,5 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
         R_wc=T[:3, :3].astype(np.float32),
         t_wc=T[:3, 3].astype(np.float32),
         K=np.asarray(obs.camera.K, np.float32),
-        image=np.stack([dt.astype(np.float32), depth], axis=-1),
+        image=np.where(dt > 0, -dt, depth).astype(np.float32),
     )
