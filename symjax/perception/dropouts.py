@@ -59,7 +59,7 @@ def claim_dropouts(
     valid: np.ndarray,
     rays_world: np.ndarray,
     origin: np.ndarray,
-    points: list[np.ndarray],
+    points: dict[int, np.ndarray],
     normal: np.ndarray,
     offset: float,
     max_px: int,
@@ -67,18 +67,19 @@ def claim_dropouts(
     """The object each pixel without depth shows, where only one can be shown.
 
     Args:
-        labels: (H, W) int object index per measured pixel, -1 elsewhere.
+        labels: (H, W) int object label per measured pixel, -1 elsewhere.
         valid: (H, W) bool, pixels with a depth measurement.
         rays_world: (H, W, 3) viewing directions in the world frame (any length).
         origin: (3,) camera centre, world frame, metres.
-        points: Per object, its (N_k, 3) measured points, world frame, metres.
+        points: The objects to claim for: label -> its (N_k, 3) measured points, world frame,
+            metres (labels not in it claim nothing).
         normal: (3,) unit table normal (up); heights are ``normal . x + offset``.
         offset: Table plane offset, metres.
         max_px: Claimed pixels lie within this many pixels of the object's measured pixels.
 
     Returns:
-        (H, W) int: the claiming object of each pixel without depth, -1 where none claims it
-        (and on every measured pixel).
+        (H, W) int: the label of the object claiming each pixel without depth, -1 where none
+        claims it (and on every measured pixel).
     """
     import cv2
 
@@ -94,7 +95,7 @@ def claim_dropouts(
     best = np.full(labels.shape, np.inf)
     free = ~valid & (labels < 0)
     H, W = labels.shape
-    for k, p in enumerate(points):
+    for k, p in points.items():
         rows, cols = np.nonzero(labels == k)
         if len(p) < 3 or len(rows) == 0:
             continue

@@ -199,22 +199,18 @@ def _segment_depth(
         ids = (r + box[0].start) * hw[1] + (c + box[1].start)
         if len(ids) >= 10:
             found.append((k, ids))
+    points = {k: world(ids) for k, ids in found}
     claimed = np.full(hw, -1, np.int32)
     if cfg.claim_dropouts_px > 0 and found and cand.any():
-        region = labels[sl].copy()
-        lut = np.full(n_obj, -1, np.int32)
-        lut[[k for k, _ in found]] = np.arange(len(found))
-        region = np.where(region >= 0, lut[np.maximum(region, 0)], -1)
-        own = claim_dropouts(region, valid[sl], rays[sl] @ R.T, t, [world(i) for _, i in found],
-                             n, float(table.offset), cfg.claim_dropouts_px)  # fmt: skip
-        claimed[sl] = np.where(own >= 0, np.array([k for k, _ in found])[np.maximum(own, 0)], -1)
+        claimed[sl] = claim_dropouts(labels[sl], valid[sl], rays[sl] @ R.T, t, points, n,
+                                     float(table.offset), cfg.claim_dropouts_px)  # fmt: skip
     for k, ids in found:
         m = np.zeros(hw, bool)
         m.reshape(-1)[ids] = True
         keep[k] = len(objects)
         objects.append(
             Observation.create(
-                world(ids),
+                points[k],
                 camera,
                 table,
                 fill_mask(m | (claimed == k), cfg.mask_fill),

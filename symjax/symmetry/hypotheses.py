@@ -4,15 +4,13 @@ coarse-to-fine refinement, scored and reduced to the best plane (Eq. 4).
 
 from __future__ import annotations
 
-import functools
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from symjax.symmetry.config import SymmetryConfig
 from symjax.symmetry.result import SymmetryResult
-from symjax.symmetry.scoring import point_terms, reflect, score_planes
+from symjax.symmetry.scoring import _dot, point_terms, reflect, score_planes
 from symjax.symmetry.view import ViewArrays
 
 __all__ = ["search_view"]
@@ -26,13 +24,12 @@ def _initial_plane(view: ViewArrays):
     w = view.valid.astype(jnp.float32)
     cnt = jnp.maximum(w.sum(), 1.0)
     # Coordinates as rows (3, N): XLA:CPU vectorises along the long axis (3x faster than (N, 3)).
-    dot = functools.partial(jnp.dot, precision=jax.lax.Precision.HIGHEST)  # no TF32 on a GPU
     p = view.points.T
-    c = dot(p, w) / cnt
+    c = _dot(p, w) / cnt
     d = p - c[:, None]
-    d = d - n[:, None] * dot(n, d)[None, :]  # projection onto the table plane
+    d = d - n[:, None] * _dot(n, d)[None, :]  # projection onto the table plane
     # Entry by entry as products with the weights: the (3, N) x (N, 3) product runs slower.
-    cov = jnp.stack([jnp.stack([dot(d[i] * d[j], w) for j in range(3)]) for i in range(3)]) / cnt
+    cov = jnp.stack([jnp.stack([_dot(d[i] * d[j], w) for j in range(3)]) for i in range(3)]) / cnt
     _, vecs = jnp.linalg.eigh(cov)
     e_a, e_b = vecs[:, 2], vecs[:, 1]  # major, minor in-plane eigenvectors
     v = view.t_wc - c  # inverse viewing direction

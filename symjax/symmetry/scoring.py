@@ -20,17 +20,28 @@ __all__ = ["point_terms", "reflect", "score_planes"]
 # Kernels (one view / one hypothesis; batched with vmap outside)
 
 
+#: ``jnp.dot`` at full float32 precision (a GPU would otherwise multiply in TF32).
+_dot = functools.partial(jnp.dot, precision=jax.lax.Precision.HIGHEST)
+
+
+def _camera_rows(view: ViewArrays, p):
+    """World points as rows p (3, N) in the camera frame, rows (3, N).
+
+    Three multiply-adds a row: XLA:CPU's matrix products with a dimension of 3, (N, 3) x (3, 3)
+    or (3, 3) x (3, N), are several times slower.
+    """
+    d = p - view.t_wc[:, None]
+    R = view.R_wc
+    return jnp.stack([R[0, k] * d[0] + R[1, k] * d[1] + R[2, k] * d[2] for k in range(3)])
+
+
 def _project(view: ViewArrays, q):
     """Pixel coordinates (N, 2) and depth (N,) of world points q (N, 3)."""
-    # Column by column: XLA:CPU's (N, 3) x (3, 3) matrix product is 4x slower.
-    d = q - view.t_wc[None, :]
-    R = view.R_wc
-    xc = jnp.stack([d[:, 0] * R[0, k] + d[:, 1] * R[1, k] + d[:, 2] * R[2, k] for k in range(3)], 1)
-    z = xc[:, 2]
+    x, y, z = _camera_rows(view, q.T)
     zs = jnp.where(z > 1e-6, z, 1e-6)
     K = view.K
-    u = (K[0, 0] * xc[:, 0] + K[0, 1] * xc[:, 1]) / zs + K[0, 2]
-    v = K[1, 1] * xc[:, 1] / zs + K[1, 2]
+    u = (K[0, 0] * x + K[0, 1] * y) / zs + K[0, 2]
+    v = K[1, 1] * y / zs + K[1, 2]
     return u, v, z
 
 
@@ -107,11 +118,7 @@ def _mirror_pixels(view: ViewArrays, rows, normal, offset):
 def _rows(view: ViewArrays):
     """The points as rows (3, N), world and camera frame (see :func:`_mirror_pixels`)."""
     p = view.points.T
-    d = p - view.t_wc[:, None]
-    R = view.R_wc
-    # Three multiply-adds a row: a (3, 3) x (3, N) matrix product costs several times more.
-    c = jnp.stack([R[0, k] * d[0] + R[1, k] * d[1] + R[2, k] * d[2] for k in range(3)])
-    return p, c
+    return p, _camera_rows(view, p)
 
 
 def _unprojectable(n_points: int, normals, dtype):
@@ -234,9 +241,7 @@ def _slab_sums(view: ViewArrays, rows, valid, normals, offsets, cfg: SymmetryCon
     # Sums over points as products with the validity vector: XLA:CPU runs a reduction with the
     # per-point terms fused into it as scalar code (measured 7x slower than a vectorised loop
     # that writes the terms, then a matrix-vector product over them).
-    # (Full float32 precision: a GPU would otherwise sum in TF32.)
-    dot = functools.partial(jnp.dot, precision=jax.lax.Precision.HIGHEST)
-    return dot(delta1, valid), dot(delta2, valid), dot(inside.astype(dist.dtype), valid)
+    return _dot(delta1, valid), _dot(delta2, valid), _dot(inside.astype(dist.dtype), valid)
 
 
 #: Points sampled for the extent and the bounding-box orientation.
