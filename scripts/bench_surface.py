@@ -150,7 +150,7 @@ def bench_poisson(rows, op, gt, depth, n_points, repeats, o3d) -> None:
     P, N, W, V = pack_views([(op.points, op.normals, op.weights)], cfg)
     args = [jax.device_put(a[0]) for a in (P, N, W, V)]
     t0 = time.perf_counter()
-    compiled = _poisson_jit.lower(*args, cfg).compile()
+    compiled = _poisson_jit.jit.lower(*args, cfg).compile()
     compile_s = time.perf_counter() - t0
     grid = jax.block_until_ready(compiled(*args))
     solve_s = median_time(lambda: jax.block_until_ready(compiled(*args)), repeats)

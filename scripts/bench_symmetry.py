@@ -89,7 +89,7 @@ def case_single(
 ) -> dict:
     view = prepare_view(obs, cloud_bucket(obs.n_valid))
     t0 = time.perf_counter()
-    compiled = _search_jit.lower(view, cfg, ex.symmetry_chunk_hypotheses).compile()
+    compiled = _search_jit.jit.lower(view, cfg, ex.symmetry_chunk_hypotheses).compile()
     compile_s = time.perf_counter() - t0
     jax.block_until_ready(compiled(view))
     run_s = median_time(lambda: jax.block_until_ready(compiled(view)), repeats)

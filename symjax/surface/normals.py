@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+import jax
 import numpy as np
 
 from symjax.array_types import ArrayLike
@@ -184,6 +185,9 @@ def oriented_completion(result: Any, camera: Any, config: NormalsConfig | None =
     if np.ndim(result.points) != 2:
         raise ShapeError("oriented_completion() needs one view; index the batch first: result[i]")
     config = config or NormalsConfig()
+    # On the host: the result's concatenations of device arrays would be eager JAX calls, a
+    # program each to fetch from the compilation cache (a tenth of a new process's first view).
+    result = jax.device_get(result)
     pts = np.asarray(result.completed_points, dtype=np.float64)
     keep = np.asarray(result.completed_valid, dtype=bool)
     w = np.asarray(result.completed_plausibility, dtype=np.float64)

@@ -28,6 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from symjax._kernel_store import StoredKernel
 from symjax._pytree import pytree_dataclass
 from symjax.errors import (
     DegenerateGeometryError,
@@ -160,9 +161,9 @@ def _poisson_view(points, normals, weights, valid, cfg: PoissonConfig) -> Poisso
     return PoissonGrid(chi=chi.astype(dtype), iso=iso, origin=origin, cell=cell)
 
 
-@functools.partial(jax.jit, static_argnums=(4,))
-def _poisson_jit(points, normals, weights, valid, cfg: PoissonConfig) -> PoissonGrid:
-    return _poisson_view(points, normals, weights, valid, cfg)
+# Stored as exported StableHLO: a new process's first mesh skips the tracing
+# (symjax._kernel_store).
+_poisson_jit = StoredKernel(_poisson_view, (4,), "_poisson_jit")
 
 
 @functools.partial(jax.jit, static_argnums=(4, 5))

@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from symjax._kernel_store import StoredKernel
 from symjax._threads import map_in_threads
 from symjax.errors import (
     DegenerateGeometryError,
@@ -33,9 +34,12 @@ from symjax.symmetry.view import ViewArrays, prepare_view
 __all__ = ["complete", "search", "search_batch"]
 
 
-@functools.partial(jax.jit, static_argnums=(1, 2))
-def _search_jit(view: ViewArrays, cfg: SymmetryConfig, chunk_planes: int) -> SymmetryResult:
+def _search_one(view: ViewArrays, cfg: SymmetryConfig, chunk_planes: int) -> SymmetryResult:
     return search_view(view, cfg, jnp.isfinite(view.points).all(), chunk_planes)
+
+
+# Stored as exported StableHLO: a new process's first view skips the tracing (symjax._kernel_store).
+_search_jit = StoredKernel(_search_one, (1, 2), "_search_jit")
 
 
 @functools.partial(jax.jit, static_argnums=(1, 2, 3))
