@@ -11,7 +11,8 @@
 * ``poisson7_view``: a Poisson depth-7 mesh per view after compilation (solve, marching cubes,
   table cut; views side by side in threads), on the completed clouds of the first 16 views.
 * ``first_view``: a new process (``--probe first``) searches and meshes its first view; with an
-  empty persistent compilation cache (cold) and again with the cache it left (warm).
+  empty persistent compilation cache (cold) and again with the cache it left (warm: JAX's
+  compiled programs and symjax's exported kernels, ``symjax._kernel_store``).
 * ``compile_counts``: a new process searches and meshes views of 1,500 to 200,000 points and
   counts the compilations of each kernel against the number of point buckets.
 * ``eval_run``: ``symjax eval`` over the 128 views in a new process, cold (empty compilation

@@ -9,8 +9,8 @@ loads it and calls it without tracing; the persistent cache then supplies the co
 
 Every call of a stored kernel goes through the exported program, whether it was just exported
 or loaded, so a result does not depend on what the store held. A stored program is keyed by the
-kernel, its static arguments, the argument shapes and dtypes, the JAX version, the backend and
-a digest of symjax's source: an edited kernel is exported again. Without a persistent cache
+kernel, its static arguments, the argument shapes and dtypes, the JAX version and flags, the
+backend and a digest of symjax's source: an edited kernel is exported again. Without a cache
 directory (or with ``jax_enable_compilation_cache`` off) the kernel is a plain ``jax.jit``.
 """
 
@@ -54,8 +54,10 @@ def _source_digest() -> str:
 
 
 def _platform() -> str:
+    """The backend, the versions and the flags that change what tracing produces."""
     dev = jax.devices()[0]
-    return f"{dev.platform}:{dev.device_kind}:{jax.__version__}:{jax.lib.__version__}"
+    flags = (jax.config.jax_enable_x64, jax.config.jax_default_matmul_precision)
+    return f"{dev.platform}:{dev.device_kind}:{jax.__version__}:{jax.lib.__version__}:{flags}"
 
 
 def _exported_call(name: str, exported, out_tree) -> Callable[[list], Any]:

@@ -466,3 +466,28 @@ def test_true_mesh_in_the_world_frame(views, cache):
     real = dataclasses.replace(v, gt_mesh=None, gt_pose=None, source="real")
     with pytest.raises(InvalidInputError, match="no ground truth"):
         real.true_mesh()
+
+
+def test_the_oriented_diagonal_is_kept_with_the_cached_object(tmp_path, monkeypatch):
+    import symjax.metrics as metrics
+    from symjax.datasets.objects import OBJECTS_VERSION, _read_object, load_object
+
+    mesh = trimesh.creation.box((0.1, 0.06, 0.2))
+    obj = load_object(mesh, dataset="box", cache_dir=tmp_path)
+    want = metrics.oriented_diagonal(obj.mesh)
+    (path,) = (tmp_path / f"objects-v{OBJECTS_VERSION}").glob("box-*.npz")
+    calls = []
+    monkeypatch.setattr(metrics, "oriented_diagonal", lambda m: calls.append(1) or -1.0)
+    again = load_object(mesh, dataset="box", cache_dir=tmp_path)
+    assert again.oriented_diagonal == want and calls == []  # read, not computed
+    monkeypatch.undo()
+    # A file written before the diagonal was kept gets it on its first read.
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    meta = json.loads(str(arrays["meta"]))
+    del meta["oriented_diagonal"]
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez_compressed(path, **arrays)
+    assert "oriented_diagonal" not in _read_object(path).__dict__
+    assert load_object(mesh, dataset="box", cache_dir=tmp_path).oriented_diagonal == want
+    assert _read_object(path).__dict__["oriented_diagonal"] == want
