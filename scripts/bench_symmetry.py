@@ -91,6 +91,7 @@ def case_single(
     t0 = time.perf_counter()
     compiled = _search_jit.jit.lower(view, cfg, ex.symmetry_chunk_hypotheses).compile()
     compile_s = time.perf_counter() - t0
+    view = jax.device_put(view)
     jax.block_until_ready(compiled(view))
     run_s = median_time(lambda: jax.block_until_ready(compiled(view)), repeats)
     e2e_s = median_time(lambda: jax.block_until_ready(search(obs, cfg, ex)), max(3, repeats // 4))

@@ -29,7 +29,7 @@ from symjax.observation import Observation
 from symjax.symmetry.config import SymmetryConfig
 from symjax.symmetry.hypotheses import search_view
 from symjax.symmetry.result import SymmetryResult
-from symjax.symmetry.view import ViewArrays, prepare_view
+from symjax.symmetry.view import ViewArrays, aligned_stack, prepare_view
 
 __all__ = ["complete", "search", "search_batch"]
 
@@ -112,7 +112,7 @@ def _run_group(views: list[ViewArrays], cfg: SymmetryConfig, ex: ExecutionConfig
     calls = []
     for s in range(0, len(padded), chunk):
         # Stacked on the host: jnp.stack would compile a small program for every new shape.
-        stacked = jax.tree_util.tree_map(lambda *xs: np.stack(xs), *padded[s : s + chunk])
+        stacked = jax.tree_util.tree_map(lambda *xs: aligned_stack(xs), *padded[s : s + chunk])
         calls.append(_search_batch_jit(stacked, cfg, chunk, ex.symmetry_chunk_hypotheses))
     out = []
     for res in jax.device_get(calls):

@@ -12,6 +12,11 @@ from symjax.observation import MIN_POINTS, Observation
 
 __all__ = ["ViewArrays", "prepare_view"]
 
+#: Byte alignment at which XLA:CPU takes a numpy array without copying it (measured: a
+#: 1280 x 960 float32 image passes in 0.03 ms aligned, 0.43 ms copied; a tenth of the paper's
+#: search on a 40,000-point view).
+ALIGNMENT = 64
+
 
 @pytree_dataclass
 class ViewArrays:
@@ -42,6 +47,30 @@ class ViewArrays:
 
 # ---------------------------------------------------------------------------------------------
 # Host-side preparation
+
+
+def aligned_empty(shape, dtype) -> np.ndarray:
+    """An uninitialised array whose data starts at a multiple of :data:`ALIGNMENT` bytes."""
+    dtype = np.dtype(dtype)
+    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    buf = np.empty(nbytes + ALIGNMENT, np.uint8)
+    start = (-buf.ctypes.data) % ALIGNMENT
+    return buf[start : start + nbytes].view(dtype).reshape(shape)
+
+
+def aligned(x, dtype) -> np.ndarray:
+    """``np.asarray(x, dtype)`` copied to an :data:`ALIGNMENT`-byte boundary."""
+    x = np.asarray(x)
+    out = aligned_empty(x.shape, dtype)
+    out[...] = x
+    return out
+
+
+def aligned_stack(arrays) -> np.ndarray:
+    """``np.stack(arrays)`` into an aligned array (a batch of views passes without a copy)."""
+    first = np.asarray(arrays[0])
+    out = aligned_empty((len(arrays),) + first.shape, first.dtype)
+    return np.stack(arrays, out=out)
 
 
 def mask_distance(mask: np.ndarray, depth: np.ndarray) -> np.ndarray:
@@ -106,11 +135,11 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
     dt = mask_distance(mask, depth)
     T = np.asarray(obs.camera.T_world_cam, np.float64)
     return ViewArrays(
-        points=np.asarray(obs.points, np.float32),
-        valid=np.asarray(obs.valid, bool),
+        points=aligned(obs.points, np.float32),
+        valid=aligned(obs.valid, bool),
         table_normal=np.asarray(obs.table.normal, np.float32),
         R_wc=T[:3, :3].astype(np.float32),
         t_wc=T[:3, 3].astype(np.float32),
         K=np.asarray(obs.camera.K, np.float32),
-        image=np.where(dt > 0, -dt, depth).astype(np.float32),
+        image=aligned(np.where(dt > 0, -dt, depth), np.float32),
     )
