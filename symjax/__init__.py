@@ -38,6 +38,7 @@ __version__ = "0.1.0"
 # no coacd) for users of the completion alone.
 _SUBPACKAGES = (
     "cli",
+    "completion",
     "configs",
     "cycle",
     "data",

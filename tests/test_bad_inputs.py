@@ -21,6 +21,7 @@ import trimesh
 
 import symjax
 from symjax import (
+    completion,
     configs,
     cycle,
     datasets,
@@ -321,6 +322,17 @@ CASES = [
     ("batch-index-failed", lambda d: search_batch([VIEW, _nan_view()])[1], InvalidInputError, ["view 1 of the batch", "NaN"]),
     ("complete-bad-view", lambda d: symjax.complete([VIEW, _same_point_view()]), DegenerateGeometryError, ["view 1", "0 mm"]),
     ("search-execution-type", lambda d: search(VIEW, None, {"chunk": 2}), ConfigError, ["execution", "ExecutionConfig"]),
+    # --- completion choice -------------------------------------------------------------------
+    ("completion-batch", lambda d: completion.choose_completion(search_batch([VIEW]), VIEW), ShapeError, ["one view", "index the batch"]),
+    ("completion-config-type", lambda d: completion.choose_completion(search(VIEW), VIEW, {"mode": "auto"}), ConfigError, ["config", "CompletionConfig", "dict"]),
+    ("completion-mode", lambda d: completion.CompletionConfig(mode="mirrors"), ConfigError, ["mode", "'auto'", "'mirrors'"]),
+    ("completion-eps", lambda d: completion.CompletionConfig(support_eps=-1.0), ConfigError, ["support_eps", "> 0"]),
+    ("preset-completion", lambda d: configs.load("paper", {"completion.revolution_copies": 1}), ConfigError, ["revolution_copies", ">= 2"]),
+    ("support-shape", lambda d: completion.plane_support(PTS[:, :2], [0, 1, 0], 0.0), ShapeError, ["(N, 3)", "(", "2)"]),
+    ("support-zero-normal", lambda d: completion.plane_support(PTS, [0, 0, 0], 0.0), ShapeError, ["normal", "non-zero"]),
+    ("support-no-points", lambda d: completion.plane_support(np.full((4, 3), np.nan), [0, 1, 0], 0.0), EmptyInputError, ["finite observed point"]),
+    ("revolution-normal", lambda d: completion.fit_revolution(surface.oriented_observation(PTS, VIEW.camera), [0, 0, 2]), ShapeError, ["table_normal", "unit vector"]),
+    ("footprint-hull-few", lambda d: completion.footprint_hull(PTS[:2], VIEW.table), DegenerateGeometryError, [">= 3 points", "(2, 3)"]),
     # --- surface and metrics -----------------------------------------------------------------
     ("poisson-shape", lambda d: surface.poisson_reconstruct(PTS, PTS[:, :2]), ShapeError, ["normals", "shape"]),
     ("poisson-zero-normals", lambda d: surface.poisson_reconstruct(PTS, np.zeros_like(PTS)), DegenerateGeometryError, ["zero length", "unit normals"]),

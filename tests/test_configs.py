@@ -33,10 +33,14 @@ def test_paper_preset_is_the_papers_search():
     assert s.angle_range == pytest.approx(math.radians(20.0))
     assert p.evaluation.methods == ("Del", "Mir5", "Mir7")
     assert p.delaunay.n_samples == 500
-    # Everything else is symjax's default: the default preset differs in the search alone.
+    # Every view mirrored, as in the paper: no revolution, no fallback.
+    assert p.completion.mode == "mirror" and p.evaluation.completion is p.completion
+    # Everything else is symjax's default: the default preset differs in the search and the
+    # completion alone.
     d = configs.load("default")
     assert d.symmetry == SymmetryConfig() and d.symmetry != s
-    assert dataclasses.replace(d.evaluation, symmetry=s) == p.evaluation
+    assert d.completion.mode == "auto"
+    assert dataclasses.replace(d.evaluation, symmetry=s, completion=p.completion) == p.evaluation
 
 
 def test_platform_presets():

@@ -72,6 +72,33 @@ def test_outputs_exist_and_are_consistent(run4):
         assert f"]({f})" in report, f
     for m in METHODS:
         assert f"| {m} |" in report
+    # Which completion each view got, and why, in the table, the records and the report.
+    for r in rows:
+        assert r["completion"] in ("mirror", "revolution", "fallback")
+        assert 0.0 < float(r["confidence"]) < 1.0
+    for v in views:
+        rec = json.loads((out / "views" / (v.replace("/", "__") + ".json")).read_text())
+        sym = rec["symmetry"]
+        assert (
+            sym["completion"] in sym["completion_reason"]
+            or "confidence" in sym["completion_reason"]
+        )
+        assert f"| {v} | {sym['completion']} |" in report
+    assert "## Completion of each view" in report and "ROC AUC" in report
+
+
+def test_records_of_older_runs_read_with_the_paper_completion():
+    """A record written before the completion choice existed still parses: it was mirrored."""
+    from symjax.evaluation.records import PlaneResult
+
+    old = {"normal": [1.0, 0.0, 0.0], "offset_m": 0.1, "vote": 3.0, "n_mirrored": 5}
+    p = PlaneResult.from_json(old)
+    assert p.completion == "mirror" and math.isnan(p.confidence) and p.completion_reason == ""
+    new = PlaneResult(
+        (1.0, 0.0, 0.0), 0.1, 3.0, 2.0, 1.0, support=0.4, rival_support=0.2, confidence=0.9,
+        completion="revolution", completion_reason="r", revolution_residual=0.1,
+    )  # fmt: skip
+    assert PlaneResult.from_json(json.loads(json.dumps(new.to_json()))) == new
 
 
 def test_resume_skips_done_views(script, run4, capsys):

@@ -1,11 +1,11 @@
 """Named presets: one TOML file fills every stage's frozen config (see ``configs/`` at the top of
 the checkout, packaged as ``symjax/presets``).
 
-A preset file has one table per concept (``[symmetry]``, ``[normals]``, ``[poisson]``,
-``[delaunay]``, ``[segmentation]``, ``[decompose]``, ``[candidates]``, ``[simulation]``,
-``[motion]``, ``[platform]``, ``[camera]``, ``[execution]``, ``[generate]``, ``[evaluation]``),
-each holding only the fields it changes from the defaults next to the code. ``extends = "name"``
-starts from another preset. Job configs that need several concepts
+A preset file has one table per concept (``[symmetry]``, ``[completion]``, ``[normals]``,
+``[poisson]``, ``[delaunay]``, ``[segmentation]``, ``[decompose]``, ``[candidates]``,
+``[simulation]``, ``[motion]``, ``[platform]``, ``[camera]``, ``[execution]``, ``[generate]``,
+``[evaluation]``), each holding only the fields it changes from the defaults next to the code.
+``extends = "name"`` starts from another preset. Job configs that need several concepts
 (:class:`~symjax.evaluation.EvalConfig`) are composed from the tables, so each value lives in one
 place.
 """
@@ -18,6 +18,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from symjax.completion.config import CompletionConfig
 from symjax.data.spec import DatasetSpec
 from symjax.datasets.stereo import StereoHead
 from symjax.decompose.config import DecomposeConfig
@@ -42,6 +43,7 @@ SECTIONS: dict[str, type] = {
     "camera": StereoHead,
     "segmentation": SegmentationConfig,
     "symmetry": SymmetryConfig,
+    "completion": CompletionConfig,
     "normals": NormalsConfig,
     "poisson": PoissonConfig,
     "delaunay": DelaunayConfig,
@@ -54,7 +56,7 @@ SECTIONS: dict[str, type] = {
 }
 
 # EvalConfig fields that come from the other tables, not from [evaluation].
-_COMPOSED = {"symmetry", "normals", "poisson", "delaunay", "execution", "camera"}
+_COMPOSED = {"symmetry", "completion", "normals", "poisson", "delaunay", "execution", "camera"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,6 +70,7 @@ class Preset:
         camera: The head's stereo camera (intrinsics, distance and elevation ranges).
         segmentation: Table plane and object segmentation.
         symmetry: Symmetry search (paper Section II-A).
+        completion: Mirror, revolution or fallback per view, and the plane's confidence.
         normals: Normal estimation.
         poisson: Poisson reconstruction.
         delaunay: The paper's Delaunay baseline.
@@ -86,6 +89,7 @@ class Preset:
     camera: StereoHead
     segmentation: SegmentationConfig
     symmetry: SymmetryConfig
+    completion: CompletionConfig
     normals: NormalsConfig
     poisson: PoissonConfig
     delaunay: DelaunayConfig

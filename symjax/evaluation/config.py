@@ -7,6 +7,7 @@ import hashlib
 import json
 from typing import Any
 
+from symjax.completion.config import CompletionConfig
 from symjax.datasets.stereo import StereoHead
 from symjax.errors import ConfigError, unknown_name
 from symjax.execution import ExecutionConfig
@@ -43,6 +44,8 @@ class EvalConfig:
         n_samples: Uniform samples of the reference surface per metric (MeshDev's sampling).
         camera: The stereo head that renders the embedded benchmark.
         symmetry: Symmetry search parameters.
+        completion: Mirror, revolution or fallback per view (``Mir5``/``Mir7`` mesh the chosen
+            completion; ``mode="mirror"`` is the paper's).
         normals: Normal estimation parameters of the completed cloud.
         poisson: Poisson parameters of ``Mir5`` and ``Mir7`` (their ``depth`` is 5 and 7).
         delaunay: Parameters of the baseline ``Del``.
@@ -60,6 +63,7 @@ class EvalConfig:
     n_samples: int = 5000
     camera: StereoHead = dataclasses.field(default_factory=StereoHead)
     symmetry: SymmetryConfig = dataclasses.field(default_factory=SymmetryConfig)
+    completion: CompletionConfig = dataclasses.field(default_factory=CompletionConfig)
     normals: NormalsConfig = dataclasses.field(default_factory=NormalsConfig)
     poisson: PoissonConfig = dataclasses.field(default_factory=PoissonConfig)
     delaunay: DelaunayConfig = dataclasses.field(default_factory=DelaunayConfig)
@@ -92,6 +96,7 @@ class EvalConfig:
         """
         keep = {
             "symmetry": dataclasses.asdict(self.symmetry),
+            "completion": dataclasses.asdict(self.completion),
             "normals": dataclasses.asdict(self.normals),
             "poisson": {k: v for k, v in dataclasses.asdict(self.poisson).items() if k != "depth"},
             "delaunay": dataclasses.asdict(self.delaunay),
@@ -99,7 +104,8 @@ class EvalConfig:
             "seed": self.seed,
             "camera": dataclasses.asdict(self.camera),
             "data": self.data,
-            "version": 4,  # 3: completions cut at the table; 4: exact surface centroids
+            # 3: completions cut at the table; 4: exact surface centroids; 5: completion choice
+            "version": 5,
         }
         text = json.dumps(keep, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:12]

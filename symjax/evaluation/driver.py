@@ -195,6 +195,8 @@ def run_evaluation(config: EvalConfig, log: Callable[[str], None] = print) -> di
         figs["Fig. 11: deviation per object"] = "fig11_objects.png"
         F.plot_centroid(rows, config.methods, out / "fig12_centroid.png")
         figs["Fig. 12: centroid error per orientation"] = "fig12_centroid.png"
+        if F.plot_confidence(records, out / "fig13_confidence.png") is not None:
+            figs["Plane confidence against plane error"] = "fig13_confidence.png"
     picks = F.pick_gallery(records, config.gallery)
     if picks:
         views = select_views(config)
@@ -205,12 +207,12 @@ def run_evaluation(config: EvalConfig, log: Callable[[str], None] = print) -> di
             config,
             out / "gallery.png",
         )
-        figs["Gallery: partial cloud, mirrored cloud, Mir7 mesh"] = "gallery.png"
+        figs["Gallery: partial cloud, completed cloud, Mir7 mesh"] = "gallery.png"
     info["figures_s"] = time.perf_counter() - t0
     info["total_s"] = time.perf_counter() - t_start
     source = f"KTH-layout folder {config.data}" if config.data else "embedded benchmark"
     p_csv, p_json = write_tables(out, rows, summary, config.to_json(), info)
-    report = write_report(out, summary, config.methods, figs, info, source)
+    report = write_report(out, summary, config.methods, figs, info, source, records)
     files = {"report": report, "csv": p_csv, "json": p_json}
     files.update({Path(v).stem: out / v for v in figs.values()})
     return {"summary": summary, "info": info, "files": files}

@@ -130,6 +130,38 @@ def plot_centroid(rows: Sequence[dict[str, Any]], methods: Sequence[str], path: 
     return _save(fig, path)
 
 
+def plot_confidence(records: Sequence[Any], path: str | Path) -> Path | None:
+    """Plane confidence against plane error (the larger of deg and mm, log scale), one dot per
+    view with a known plane, coloured by its completion; None when no view has both."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pts = [
+        (max(p.plane_error_deg, p.plane_error_mm), p.confidence, p.completion)
+        for p in (r.symmetry for r in records)
+        if p is not None and math.isfinite(p.plane_error_deg) and math.isfinite(p.confidence)
+    ]
+    if not pts:
+        return None
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for kind, colour in (("mirror", "tab:blue"), ("revolution", "tab:green"),
+                         ("fallback", "tab:red")):  # fmt: skip
+        sel = [(e, c) for e, c, k in pts if k == kind]
+        if sel:
+            e, c = np.array(sel).T
+            ax.scatter(np.maximum(e, 0.05), c, s=14, c=colour, label=kind)
+    ax.axvline(10.0, color="grey", ls="--", lw=0.8)
+    ax.set_xscale("log")
+    ax.set_xlabel("plane error: max(deg, mm)  (right of the line: bad plane)")
+    ax.set_ylabel("plane confidence")
+    ax.set_title("Confidence of the mirror plane against its error")
+    ax.legend()
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def pick_gallery(records: Sequence[Any], n: int) -> list[tuple[str, str]]:
     """Views for the gallery: ``n - 1`` typical ones of distinct data sets, then the worst.
 
@@ -194,7 +226,7 @@ def _for_drawing(mesh, faces: int = 12000):
 
 
 def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) -> Path:
-    """Partial cloud, mirrored cloud and Mir7 mesh of a few views (recomputed here).
+    """Partial cloud, completed cloud and Mir7 mesh of a few views (recomputed here).
 
     Args:
         views: The :class:`~symjax.datasets.View` objects to show, one row each.
@@ -208,20 +240,27 @@ def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) 
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+    from symjax.completion import choose_completion
     from symjax.errors import SymjaxError
     from symjax.evaluation.stages import poisson_meshes
-    from symjax.surface import oriented_completion
     from symjax.symmetry import search_batch
 
     res = search_batch([v.observation for v in views], config.symmetry, config.execution)
     # The evaluation's own batched calls (same buckets, same width): no new compilation, and
     # the meshes it measured, cut at the table.
     ops: list = []
+    added: list = []  # the points the completion added (mirrored or revolved)
     for i, v in enumerate(views):
         try:
-            ops.append(oriented_completion(res[i], v.camera, config.normals))
+            c = choose_completion(res[i], v.observation, config.completion, config.normals)
+            ops.append(c.oriented if c.mesh is None else c.mesh)
+            added.append(
+                (c.kind, np.zeros((0, 3)) if c.oriented is None else c.oriented.points[
+                    c.oriented.mirrored])
+            )  # fmt: skip
         except SymjaxError:
             ops.append(None)
+            added.append(("mirror", res[i].mirrored_cloud()))
     built = poisson_meshes(ops, 7, config, [v.observation.table for v in views])
     meshes = [None if isinstance(m, str) else _for_drawing(m) for m in built]
     fig = plt.figure(figsize=(11, 3.4 * len(views)))
@@ -229,9 +268,8 @@ def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) 
     light /= np.linalg.norm(light)
     rng = np.random.default_rng(0)
     for row, (v, cap) in enumerate(zip(views, captions, strict=True)):
-        r = res[row]
         obs = v.points
-        mir = r.mirrored_cloud()
+        kind, mir = added[row]
         sel_o = rng.permutation(len(obs))[:3000]
         sel_m = rng.permutation(len(mir))[:3000]
         mesh = meshes[row]
@@ -252,7 +290,8 @@ def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) 
                 p, q = obs[sel_o] - centre, mir[sel_m] - centre
                 ax.scatter(p[:, 0], p[:, 1], p[:, 2], s=0.4, c="tab:blue")
                 ax.scatter(q[:, 0], q[:, 1], q[:, 2], s=0.4, c="tab:orange")
-                ax.set_title("observed (blue) + mirrored (orange)", fontsize=9)
+                what = {"mirror": "mirrored", "revolution": "revolved"}.get(kind, "none: hull")
+                ax.set_title(f"observed (blue) + {what} (orange)", fontsize=9)
             else:
                 if mesh is not None:
                     tri = np.asarray(mesh.triangles) - centre
@@ -267,6 +306,6 @@ def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) 
             ax.set_box_aspect((1, 1, 1))
             ax.view_init(elev=elev, azim=azim)
             ax.set_axis_off()
-    fig.suptitle("Completion by mirroring: partial view, mirrored cloud, Poisson depth 7")
+    fig.suptitle("Completion: partial view, completed cloud, Poisson depth 7 (or the hull)")
     fig.tight_layout()
     return _save(fig, path)

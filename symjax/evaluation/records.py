@@ -50,6 +50,8 @@ ROW_FIELDS = (
     "centroid_error",
     "plane_error_deg",
     "plane_error_mm",
+    "completion",
+    "confidence",
     "n_points",
     "n_faces",
     "build_s",
@@ -119,6 +121,13 @@ class PlaneResult:
         plane_error_deg: Angle to the nearest true plane, degrees (NaN: unknown).
         plane_error_mm: Offset error, mm (NaN: unknown).
         n_mirrored: Mirrored points kept.
+        support: Share of the mirrored view landing on the view (the paper's case i).
+        rival_support: The best support of the rival planes.
+        confidence: Probability that the plane is right
+            (:func:`symjax.completion.plane_confidence`).
+        completion: The completion the view got: ``"mirror"``, ``"revolution"``, ``"fallback"``.
+        completion_reason: Why, with the numbers that decided it.
+        revolution_residual: Axis fit residual of the visible surface (NaN: no axis).
     """
 
     normal: tuple[float, float, float]
@@ -127,6 +136,12 @@ class PlaneResult:
     plane_error_deg: float = NAN
     plane_error_mm: float = NAN
     n_mirrored: int = 0
+    support: float = NAN
+    rival_support: float = NAN
+    confidence: float = NAN
+    completion: str = "mirror"
+    completion_reason: str = ""
+    revolution_residual: float = NAN
 
     def to_json(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
@@ -142,6 +157,10 @@ class PlaneResult:
             plane_error_deg=_num(d.get("plane_error_deg")),
             plane_error_mm=_num(d.get("plane_error_mm")),
             n_mirrored=int(d.get("n_mirrored", 0)),
+            **{f: _num(d.get(f)) for f in ("support", "rival_support", "confidence")},
+            completion=str(d.get("completion", "mirror")),
+            completion_reason=str(d.get("completion_reason", "")),
+            revolution_residual=_num(d.get("revolution_residual")),
         )
 
 
@@ -288,6 +307,8 @@ def rows_of(records: Sequence[ViewRecord], methods: Sequence[str]) -> list[dict[
                     **{f: getattr(r, f) for f in _METRIC_FIELDS},
                     "plane_error_deg": NAN if sym is None else sym.plane_error_deg,
                     "plane_error_mm": NAN if sym is None else sym.plane_error_mm,
+                    "completion": "" if sym is None else sym.completion,
+                    "confidence": NAN if sym is None else sym.confidence,
                     "n_points": rec.n_points,
                     "n_faces": r.n_faces,
                     "build_s": build,

@@ -24,8 +24,9 @@ from symjax.evaluation.records import MeshResult, PlaneResult, ViewRecord
 __all__ = ["poisson_meshes", "start_batch"]
 
 
-def _plane_result(view, res) -> PlaneResult:
-    """The found plane and, where the truth is known, its error (deg, mm)."""
+def _plane_result(view, res, completion) -> PlaneResult:
+    """The found plane, the completion chosen and, where the truth is known, the plane's error
+    (deg, mm)."""
     from symjax.datasets import symmetry_truth
     from symjax.metrics import plane_error
 
@@ -47,6 +48,18 @@ def _plane_result(view, res) -> PlaneResult:
         plane_error_deg=float(deg),
         plane_error_mm=float(mm),
         n_mirrored=int(np.sum(np.asarray(res.mirrored_keep))),
+        **(
+            {}
+            if completion is None
+            else dict(
+                support=completion.support,
+                rival_support=completion.rival_support,
+                confidence=completion.confidence,
+                completion=completion.kind,
+                completion_reason=completion.reason,
+                revolution_residual=completion.revolution.residual,
+            )
+        ),
     )
 
 
@@ -70,7 +83,11 @@ def poisson_meshes(ops: list, depth: int, cfg: EvalConfig, tables: list) -> list
 
     pcfg = dataclasses.replace(cfg.poisson, depth=depth)
     out: list = ["no completed cloud" if op is None else None for op in ops]
-    good = [i for i, op in enumerate(ops) if op is not None]
+    # A completion that is a mesh already (the fallback hull) is its own Mir5 and Mir7.
+    for i, op in enumerate(ops):
+        if op is not None and not hasattr(op, "normals"):
+            out[i] = op
+    good = [i for i, op in enumerate(ops) if op is not None and hasattr(op, "normals")]
     if good:
         meshes = poisson_reconstruct_batch(
             [ops[i] for i in good],
@@ -94,13 +111,15 @@ def start_batch(
     """
     import jax
 
-    from symjax.surface import delaunay_mesh, oriented_completion
+    from symjax.completion import choose_completion
+    from symjax.surface import delaunay_mesh
 
     n = len(views)
     mir = [m for m in config.methods if m in POISSON_DEPTHS]
     timings: list[dict[str, float]] = [{"load": load_s[i]} for i in range(n)]
     results: list = [None] * n
-    ops: list = [None] * n
+    ops: list = [None] * n  # oriented points to mesh, or the fallback's mesh
+    chosen: list = [None] * n
     op_errors: list[str | None] = [None] * n
     if mir:
         t0 = time.perf_counter()
@@ -115,7 +134,11 @@ def start_batch(
                 continue
             t1 = time.perf_counter()
             try:
-                ops[i] = oriented_completion(results[i], views[i].camera, config.normals)
+                c = choose_completion(
+                    results[i], views[i].observation, config.completion, config.normals
+                )
+                chosen[i] = c
+                ops[i] = c.oriented if c.mesh is None else c.mesh
             except SymjaxError as e:
                 op_errors[i] = one_line(e)
             timings[i]["normals"] = time.perf_counter() - t1
@@ -172,7 +195,9 @@ def start_batch(
                     has_ground_truth=v.gt_mesh is not None,
                     config_key=key,
                     n_points=int(len(v.points)),
-                    symmetry=None if results[i] is None else _plane_result(v, results[i]),
+                    symmetry=(
+                        None if results[i] is None else _plane_result(v, results[i], chosen[i])
+                    ),
                     results=tuple(per_method),
                     timings_s=timings[i],
                 )

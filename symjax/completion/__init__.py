@@ -1,0 +1,27 @@
+"""Which shape completes a view, and how sure it is (beyond the paper).
+
+Modules: ``config`` (:class:`CompletionConfig`), ``support`` (the plane's support, the paper's
+case i), ``confidence`` (the plane's calibrated confidence), ``revolution`` (axis fit and
+completion by revolving), ``choice`` (:func:`choose_completion`: the shape a view gets, and why).
+"""
+
+from symjax.completion.choice import Completion, choose_completion, footprint_hull
+from symjax.completion.confidence import CONFIDENCE_MODEL, plane_confidence, roc_auc
+from symjax.completion.config import CompletionConfig
+from symjax.completion.revolution import RevolutionFit, fit_revolution, revolve
+from symjax.completion.support import SupportIndex, plane_support
+
+__all__ = [
+    "CONFIDENCE_MODEL",
+    "Completion",
+    "CompletionConfig",
+    "RevolutionFit",
+    "SupportIndex",
+    "choose_completion",
+    "fit_revolution",
+    "footprint_hull",
+    "plane_confidence",
+    "plane_support",
+    "revolve",
+    "roc_auc",
+]

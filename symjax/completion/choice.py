@@ -1,0 +1,136 @@
+"""The completed shape of one view: the mirror, the revolution or the fallback, and why."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Literal
+
+import numpy as np
+
+from symjax.completion.confidence import plane_confidence
+from symjax.completion.config import CompletionConfig
+from symjax.completion.revolution import RevolutionFit, fit_revolution, revolve
+from symjax.completion.support import SupportIndex
+from symjax.errors import ShapeError, config_or_default
+from symjax.surface.config import NormalsConfig
+from symjax.surface.normals import OrientedPoints, oriented_completion, oriented_observation
+
+__all__ = ["Completion", "choose_completion", "footprint_hull"]
+
+Kind = Literal["mirror", "revolution", "fallback"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Completion:
+    """How one view is completed, and how sure the plane is.
+
+    Attributes:
+        kind: ``"mirror"`` (the paper), ``"revolution"`` (turned about the fitted axis) or
+            ``"fallback"`` (the hull of the visible points and their table footprint).
+        reason: Why this kind, in words with the numbers that decided it.
+        confidence: Probability that the mirror plane is right (:func:`plane_confidence`).
+        support: The plane's support in [0, 1] (:mod:`symjax.completion.support`).
+        rival_support: The best rival plane's support.
+        flagged: ``confidence < config.flag_below``: the mirror plane is likely wrong.
+        revolution: The axis fit of the visible surface.
+        oriented: Oriented points to mesh (mirror, revolution); None for the fallback.
+        mesh: The fallback's watertight ``trimesh.Trimesh``; None otherwise.
+    """
+
+    kind: Kind
+    reason: str
+    confidence: float
+    support: float
+    rival_support: float
+    flagged: bool
+    revolution: RevolutionFit
+    oriented: OrientedPoints | None = None
+    mesh: Any = None
+
+
+def footprint_hull(points: np.ndarray, table: Any):
+    """Convex hull of the points and their projections onto the table (a watertight mesh).
+
+    The least an object standing on the table occupies if it is convex: nothing of it is
+    assumed behind what was seen except the column down to the table. Points below the table
+    (depth noise) are lifted onto it: nothing of the object is under the table.
+
+    Raises:
+        DegenerateGeometryError: Fewer than 4 points or no volume.
+    """
+    import trimesh
+
+    from symjax.errors import DegenerateGeometryError
+
+    p = np.asarray(points, np.float64)
+    if p.ndim != 2 or p.shape[1] != 3 or len(p) < 3:
+        raise DegenerateGeometryError(f"a footprint hull needs >= 3 points (N, 3), got {p.shape}")
+    n = np.asarray(table.normal, np.float64)
+    height = p @ n - float(table.offset)
+    p = p - np.minimum(height, 0.0)[:, None] * n
+    foot = p - np.maximum(height, 0.0)[:, None] * n
+    try:
+        hull = trimesh.Trimesh(np.concatenate([p, foot])).convex_hull
+    except Exception as e:  # qhull's own errors on flat or tiny input
+        raise DegenerateGeometryError(f"no footprint hull of {len(p)} points: {e}") from None
+    if not hull.is_volume or hull.volume <= 0:
+        raise DegenerateGeometryError(f"the footprint hull of {len(p)} points has no volume")
+    return hull
+
+
+def choose_completion(
+    result: Any,
+    observation: Any,
+    config: CompletionConfig | None = None,
+    normals: NormalsConfig | None = None,
+) -> Completion:
+    """Chooses and builds the completion of one view from its symmetry search.
+
+    With ``config.mode="auto"``: a visible surface of revolution about the table normal is
+    revolved; otherwise the view is mirrored, unless the plane's confidence is below
+    ``config.min_confidence``, where the footprint hull replaces it.
+
+    Args:
+        result: A single-view :class:`~symjax.symmetry.SymmetryResult`.
+        observation: The :class:`~symjax.Observation` it was searched on (camera and table).
+        config: :class:`CompletionConfig` (mode, thresholds).
+        normals: Normal estimation of the observed and completed clouds.
+
+    Returns:
+        A :class:`Completion`.
+
+    Raises:
+        ShapeError: ``result`` is a batch (index it first).
+        SymjaxError: The view's points are degenerate for normals or the fallback's hull.
+    """
+    cfg = config_or_default(config, CompletionConfig)
+    if np.ndim(result.points) != 2:
+        raise ShapeError("choose_completion() needs one view; index the batch first: result[i]")
+    cam, table = observation.camera, observation.table
+    observed = oriented_observation(
+        np.asarray(result.points)[np.asarray(result.valid, bool)], cam, normals
+    )
+    index = SupportIndex(observed.points, cfg.support_samples)
+    normal, offset = np.asarray(result.normal, np.float64), float(result.offset)
+    support = index.support(normal, offset, cfg.support_eps)
+    rival = index.rival_support(normal, offset, np.asarray(table.normal), cfg)
+    conf = plane_confidence(support, rival)
+    fit = fit_revolution(observed, np.asarray(table.normal, np.float64), cfg)
+    facts = dict(confidence=conf, support=support, rival_support=rival, revolution=fit)
+    facts["flagged"] = bool(conf < cfg.flag_below)
+    axis = np.isfinite(fit.residual)
+    why_rot = f"axis residual {fit.residual:.3f} <= {cfg.revolution_residual}"
+    why_conf = f"plane support {support:.2f} (best rival {rival:.2f}), confidence {conf:.2f}"
+    if cfg.mode == "revolution" and axis or cfg.mode == "auto" and fit.rotational:
+        reason = f"visible surface is rotational ({why_rot})" if fit.rotational else (
+            f"revolution asked for (axis residual {fit.residual:.3f})"
+        )  # fmt: skip
+        oriented = revolve(observed, fit, cfg.revolution_copies)
+        return Completion("revolution", reason, oriented=oriented, **facts)
+    if cfg.mode == "fallback" or cfg.mode == "auto" and conf < cfg.min_confidence:
+        reason = "fallback asked for" if cfg.mode == "fallback" else (
+            f"{why_conf} < {cfg.min_confidence}"
+        )  # fmt: skip
+        return Completion("fallback", reason, mesh=footprint_hull(observed.points, table), **facts)
+    reason = why_conf if cfg.mode != "revolution" else f"no axis to revolve about; {why_conf}"
+    return Completion("mirror", reason, oriented=oriented_completion(result, cam, normals), **facts)

@@ -1,0 +1,75 @@
+"""Configuration of the completion choice: mirror, revolution or fallback (beyond the paper)."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Literal
+
+from symjax.errors import ConfigError
+from symjax.validation import check_fields
+
+__all__ = ["CompletionConfig"]
+
+
+@dataclasses.dataclass(frozen=True)
+class CompletionConfig:
+    """How a view's completed shape is chosen and how sure the choice is.
+
+    The paper mirrors every view across the plane of Eq. 4. Beyond it: the plane's support (the
+    share of mirrored points that land on an observed point, the paper's case i, which Eq. 3
+    leaves out) gives a confidence; objects whose visible surface is a surface of revolution
+    about the table normal are revolved about the fitted axis; and below the confidence
+    threshold a conservative shape replaces the mirror.
+
+    Attributes:
+        mode: ``"mirror"`` (the paper: always the mirror), ``"auto"`` (revolution for rotational
+            surfaces, the fallback below ``min_confidence``, else the mirror), or one of
+            ``"revolution"``/``"fallback"`` for every view that allows it.
+        support_eps: A mirrored point supports the plane when an observed point lies within this
+            distance, metres (about the stereo noise of the benchmark: 2 mm).
+        support_samples: Observed points mirrored to measure the support (a seeded subset).
+        rival_angles_deg: Orientations, relative to the found plane, of the rival planes whose
+            support the found plane's is compared with.
+        rival_shift: Half-range of the rivals' shifts, metres (5 shifts each).
+        revolution_residual: A surface is rotational when the median distance of its normal
+            lines from the fitted axis is at most this share of its radius.
+        revolution_min_tilt: Points whose normal's horizontal part is shorter than this enter
+            no axis fit (lids, rims).
+        revolution_min_points: Fewest tilted points for an axis fit.
+        revolution_copies: Turned copies of the observed surface around the full circle.
+        min_confidence: ``mode="auto"`` replaces the mirror by the fallback below this. Off
+            (0) by default: on the benchmark's flagged views the footprint hull deviated more
+            than the mirror it would replace (see the README's completion table).
+        flag_below: A plane whose confidence is below this is flagged as likely wrong.
+    """
+
+    mode: Literal["mirror", "auto", "revolution", "fallback"] = "auto"
+    support_eps: float = 0.002
+    support_samples: int = 3000
+    rival_angles_deg: tuple[float, ...] = (-40.0, -25.0, -15.0, 15.0, 25.0, 40.0)
+    rival_shift: float = 0.02
+    revolution_residual: float = 0.17
+    revolution_min_tilt: float = 0.3
+    revolution_min_points: int = 50
+    revolution_copies: int = 8
+    min_confidence: float = 0.0
+    flag_below: float = 0.5
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        for name in ("support_eps", "revolution_residual"):
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"{name} must be > 0, got {getattr(self, name)!r}")
+        if self.mode not in ("mirror", "auto", "revolution", "fallback"):
+            raise ConfigError(
+                f"mode must be 'mirror', 'auto', 'revolution' or 'fallback', got {self.mode!r}"
+            )
+        if not self.rival_shift >= 0:
+            raise ConfigError(f"rival_shift must be >= 0 metres, got {self.rival_shift!r}")
+        for name in ("revolution_min_tilt", "min_confidence", "flag_below"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ConfigError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
+        for name, low in (("support_samples", 10), ("revolution_min_points", 3),
+                          ("revolution_copies", 2)):  # fmt: skip
+            if getattr(self, name) < low:
+                raise ConfigError(f"{name} must be >= {low}, got {getattr(self, name)!r}")
