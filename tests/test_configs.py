@@ -33,14 +33,16 @@ def test_paper_preset_is_the_papers_search():
     assert s.angle_range == pytest.approx(math.radians(20.0))
     assert p.evaluation.methods == ("Del", "Mir5", "Mir7")
     assert p.delaunay.n_samples == 500
-    # Every view mirrored, as in the paper: no revolution, no fallback.
+    # Every view mirrored, as in the paper (no revolution, no fallback), and meshed as solved.
     assert p.completion.mode == "mirror" and p.evaluation.completion is p.completion
-    # Everything else is symjax's default: the default preset differs in the search and the
-    # completion alone.
+    assert not p.poisson.clip_to_hull and p.evaluation.poisson is p.poisson
+    # Everything else is symjax's default: the default preset differs in the search, the
+    # completion and the hull cut alone.
     d = configs.load("default")
     assert d.symmetry == SymmetryConfig() and d.symmetry != s
-    assert d.completion.mode == "auto"
-    assert dataclasses.replace(d.evaluation, symmetry=s, completion=p.completion) == p.evaluation
+    assert d.completion.mode == "auto" and d.poisson.clip_to_hull
+    paper_parts = dict(symmetry=s, completion=p.completion, poisson=p.poisson)
+    assert dataclasses.replace(d.evaluation, **paper_parts) == p.evaluation
 
 
 def test_platform_presets():

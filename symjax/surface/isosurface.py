@@ -18,7 +18,12 @@ from symjax.geometry import is_closed
 from symjax.surface.config import PoissonConfig
 from symjax.surface.poisson_grid import PoissonGrid
 
-__all__ = ["InsideOutError", "grid_to_mesh"]
+__all__ = ["InsideOutError", "evidence_hull", "grid_to_mesh"]
+
+#: Facets of the evidence hull closer to coplanar than this are merged (qhull's centrum
+#: option), metres: a noisy face of 20,000 points is one facet instead of hundreds, and the
+#: clip costs 20-30 ms a depth-7 grid instead of 200 ms.
+HULL_MERGE = 0.001
 
 
 class InsideOutError(DegenerateGeometryError):
@@ -72,6 +77,51 @@ def _clip_below(chi: np.ndarray, grid: PoissonGrid, table: Any, iso: float, span
     return np.minimum(chi, h.astype(chi.dtype))
 
 
+def evidence_hull(points: np.ndarray, table: Any = None) -> np.ndarray | None:
+    """Facets (F, 4) ``[n, d]``, ``n . x + d <= 0`` inside, of the convex hull of the points
+    and, with a table, of their footprint on it; None for a flat or degenerate cloud.
+
+    A completion claims no space that nothing in the evidence spans: on the benchmark, Poisson
+    surfaces of completed clouds balloon beyond their points where the sides of an object were
+    never seen (a box seen edge-on: 23 mm mean deviation), and the hull cuts that away.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    p = np.asarray(points, np.float64)
+    try:
+        # The hull's corners carry it: the footprint of the corners spans that of all points
+        # (a projection maps hulls onto hulls), and the merged hull is found among them.
+        p = p[ConvexHull(p).vertices]
+        if table is not None:
+            n = np.asarray(table.normal, np.float64)
+            n = n / np.linalg.norm(n)
+            p = np.concatenate([p, p - (p @ n - float(table.offset))[:, None] * n])
+        eq = ConvexHull(p, qhull_options=f"C-{HULL_MERGE}").equations
+    except (QhullError, ValueError):
+        return None
+    # A merged facet's plane can pass up to the merge tolerance inside some of its points:
+    # each facet is moved out to the farthest point along its normal (the support function),
+    # so the polytope holds every point (a sampled sphere otherwise lost 5 % of its volume).
+    eq[:, 3] = -(p @ eq[:, :3].T).max(axis=0)
+    return eq
+
+
+def _clip_outside(chi: np.ndarray, grid: PoissonGrid, hull: np.ndarray, iso: float, span: float):
+    """``min(chi, iso - s e)`` on the nodes inside the surface, ``e`` the largest facet
+    distance of the node outside ``hull`` (:func:`evidence_hull`), slope one ``span`` per cell
+    as in :func:`_clip_below`: the intersection with the hull. Nodes outside the surface stay
+    outside and are not visited."""
+    idx = np.nonzero(chi >= iso)
+    cell = np.float32(grid.cell)
+    x = np.asarray(grid.origin, np.float32) + np.stack(idx, axis=1).astype(np.float32) * cell
+    a, d = hull[:, :3].astype(np.float32), hull[:, 3].astype(np.float32)
+    e = np.empty(len(x), np.float32)
+    for s in range(0, len(x), 16384):  # a (16384, F) temporary at a time
+        e[s : s + 16384] = (x[s : s + 16384] @ a.T + d).max(axis=1)
+    chi[idx] = np.minimum(chi[idx], np.float32(iso) - np.float32(span) * e / cell)
+    return chi
+
+
 def _crossing_box(chi: np.ndarray, iso: float) -> tuple[slice, slice, slice]:
     """The sub-grid holding every cell where chi reaches ``iso``, one cell of margin: marching
     cubes finds no crossing outside it, and scans a third of the grid instead of all of it."""
@@ -83,7 +133,7 @@ def _crossing_box(chi: np.ndarray, iso: float) -> tuple[slice, slice, slice]:
     return tuple(box)
 
 
-def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None):
+def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None, hull=None):
     """Marching cubes of one solved grid into a closed, outward-oriented mesh.
 
     Args:
@@ -92,6 +142,8 @@ def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None):
         table: A :class:`~symjax.table.TablePlane` the object stands on, or None. The surface
             is cut there and closed by the plane: the indicator is intersected with the half
             space above the table, so the mesh stays closed and its bottom is flat.
+        hull: Facets (F, 4) of :func:`evidence_hull`, or None: the indicator is intersected
+            with the hull as it is with the table.
 
     Returns:
         A watertight ``trimesh.Trimesh`` in world coordinates, metres.
@@ -124,6 +176,10 @@ def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None):
         )
     if table is not None:
         chi = _clip_below(chi, grid, table, iso, hi_v - lo_v)
+    if hull is not None:
+        chi = _clip_outside(np.array(chi), grid, hull, iso, hi_v - lo_v)
+        if not float(chi.max()) > iso:
+            raise DegenerateGeometryError("nothing of the surface lies inside the points' hull")
     # One layer of "outside" around the grid closes surfaces that reach the box faces.
     box = _crossing_box(chi, iso)
     vol = np.pad(chi[box], 1, mode="constant", constant_values=min(lo_v, iso - 1.0))

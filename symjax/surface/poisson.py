@@ -20,7 +20,7 @@ from symjax.errors import InvalidInputError, SymjaxError, config_or_default
 from symjax.execution import ExecutionConfig
 from symjax.geometry import cloud_bucket
 from symjax.surface.config import PoissonConfig
-from symjax.surface.isosurface import InsideOutError, grid_to_mesh
+from symjax.surface.isosurface import InsideOutError, evidence_hull, grid_to_mesh
 from symjax.surface.normals import OrientedPoints
 from symjax.surface.poisson_grid import pack_views, solve_grid, solve_grids
 
@@ -64,12 +64,13 @@ def poisson_reconstruct(
 def _mesh(grid, packed: tuple, cfg: PoissonConfig, table):
     """The grid's mesh; an inside-out indicator is solved again as a thin shell from the view's
     packed arrays (:func:`pack_views`, batch of one)."""
+    P, N, W, V = packed
+    hull = evidence_hull(P[0][V[0]], table) if cfg.clip_to_hull else None
     try:
-        return grid_to_mesh(grid, cfg, table)
+        return grid_to_mesh(grid, cfg, table, hull)
     except InsideOutError:
         if cfg.thin_shell <= 0:
             raise
-        P, N, W, V = packed
         return _thin_shell(P[0][V[0]], N[0][V[0]], W[0][V[0]], cfg, table)
 
 
@@ -83,7 +84,8 @@ def _thin_shell(points, normals, weights, cfg: PoissonConfig, table):
     t = max(cfg.thin_shell * cell, 0.003)
     P, N, W, V = pack_views([(np.concatenate([p, p - t * n]), np.concatenate([n, -n]),
                               np.concatenate([w, w]))], cfg, cloud_bucket(2 * len(p)))  # fmt: skip
-    mesh = grid_to_mesh(jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg)), cfg, table)
+    hull = evidence_hull(P[0][V[0]], table) if cfg.clip_to_hull else None
+    mesh = grid_to_mesh(jax.device_get(solve_grid(P[0], N[0], W[0], V[0], cfg)), cfg, table, hull)
     mesh.metadata["thin_shell_m"] = t
     return mesh
 
