@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from symjax.completion.config import CompletionConfig
 from symjax.decompose.config import DecomposeConfig
 from symjax.execution import ExecutionConfig
 from symjax.grasp.config import CandidateConfig
@@ -24,11 +25,12 @@ class ShapeToGraspStages:
     """The configs from a partial view to rolled-out grasps (extend it with a job's own fields).
 
     Attributes:
-        symmetry, normals, poisson, delaunay, decompose, candidates, simulation, execution: The
-            stages' configs (``poisson.depth`` 7 is the paper's Mir7).
+        symmetry, completion, normals, poisson, delaunay, decompose, candidates, simulation,
+            execution: The stages' configs (``poisson.depth`` 7 is the paper's Mir7).
     """
 
     symmetry: SymmetryConfig = dataclasses.field(default_factory=SymmetryConfig)
+    completion: CompletionConfig = dataclasses.field(default_factory=CompletionConfig)
     normals: NormalsConfig = dataclasses.field(default_factory=NormalsConfig)
     poisson: PoissonConfig = dataclasses.field(
         default_factory=lambda: PoissonConfig(depth=MIR7_DEPTH)

@@ -1,7 +1,8 @@
 """``PredictObjectShape`` and ``ConvexDecomposition`` for every hypothesis of a frame.
 
-``C``: one batched symmetry search over all hypotheses, the completed clouds' oriented normals,
-one batched Poisson solve cut at the table (the paper's Mir7). ``P``: the paper's Delaunay
+``C``: one batched symmetry search over all hypotheses, each completed as
+:func:`symjax.completion.choose_completion` chooses (mirror or revolution), one batched Poisson
+solve cut at the table (the paper's Mir7). ``P``: the paper's Delaunay
 baseline of the observed points, cut at the table. ``T``: the true meshes (given). A hypothesis
 that fails keeps its error; the others go on.
 """
@@ -25,13 +26,14 @@ __all__ = [
 
 
 def completed_meshes(observations: list, tables: list, cfg: Any, search: Any = None) -> list:
-    """The paper's Mir7 per observation: one batched symmetry search, the completed clouds'
-    oriented normals, one batched Poisson solve, each mesh cut at its table.
+    """The paper's Mir7 per observation: one batched symmetry search, each view's completion
+    (:func:`~symjax.completion.choose_completion`), one batched Poisson solve, each mesh cut at
+    its table (and at its points' hull, ``poisson.clip_to_hull``).
 
     Args:
         observations: :class:`symjax.Observation` list.
         tables: The table plane each stands on.
-        cfg: A config with ``symmetry``, ``normals``, ``poisson`` and ``execution``
+        cfg: A config with ``symmetry``, ``completion``, ``normals``, ``poisson`` and ``execution``
             (:class:`~symjax.configs.stages.ShapeToGraspStages`).
         search: The batched :class:`~symjax.symmetry.SymmetryResult` of ``observations`` when
             the caller ran the search (and keeps its planes); None runs it here.
@@ -39,7 +41,8 @@ def completed_meshes(observations: list, tables: list, cfg: Any, search: Any = N
     Returns:
         Per observation a ``trimesh.Trimesh`` (world frame) or the :class:`SymjaxError`.
     """
-    from symjax.surface import oriented_completion, poisson_reconstruct_batch
+    from symjax.completion import choose_completion
+    from symjax.surface import poisson_reconstruct_batch
     from symjax.symmetry import search_batch
 
     k = len(observations)
@@ -55,10 +58,15 @@ def completed_meshes(observations: list, tables: list, cfg: Any, search: Any = N
             out[i] = res.errors[i] if res.errors else DegenerateGeometryError("no plane")
             continue
         try:
-            ops.append(oriented_completion(res[i], obs.camera, cfg.normals))
-            good.append(i)
+            c = choose_completion(res[i], obs, cfg.completion, cfg.normals)
         except SymjaxError as e:
             out[i] = e
+            continue
+        if c.mesh is not None:  # the fallback is a mesh already
+            out[i] = c.mesh
+        else:
+            ops.append(c.oriented)
+            good.append(i)
     if ops:
         meshes = poisson_reconstruct_batch(ops, cfg.poisson, cfg.execution, errors="keep",
                                            tables=[tables[i] for i in good])  # fmt: skip
