@@ -475,6 +475,8 @@ CASES = [
     ("motion-config-approach-margin", lambda d: motion.MotionConfig(approach_margin=0.01), ConfigError, ["approach_margin", "check_margin"]),
     ("cli-clear-table-objects", lambda d: _cli("clear-table", "--min-objects", "7", "--out-dir", str(d / "o")), _CliError, ["exit 2", "min objects", "(7, 5)"]),
     ("cli-clear-table-robot", lambda d: _cli("clear-table", "--robots", "pr2", "--out-dir", str(d / "o")), _CliError, ["exit 2", "pr2"]),
+    ("cli-eval-completion-mode", lambda d: _cli("eval", "--completion.mode", "mirrors", "--out-dir", str(d / "o")), _CliError, ["exit 2", "mirrors"]),
+    ("cli-eval-revolution-copies", lambda d: _cli("eval", "--completion.revolution-copies", "1", "--out-dir", str(d / "o")), _CliError, ["exit 2", "revolution_copies", ">= 2"]),
     ("cli-study-top", lambda d: _cli("study", "--top", "0", "--out-dir", str(d / "o")), _CliError, ["exit 2", "top", ">= 1"]),
     # --- grasp training data (symjax generate) ---------------------------------------------------
     ("data-unknown-object", lambda d: _generate(d, objects=("no_such_scan",)), UnknownNameError, ["'no_such_scan'", "025_mug"]),
