@@ -322,6 +322,7 @@ CASES = [
     ("batch-index-failed", lambda d: search_batch([VIEW, _nan_view()])[1], InvalidInputError, ["view 1 of the batch", "NaN"]),
     ("complete-bad-view", lambda d: symjax.complete([VIEW, _same_point_view()]), DegenerateGeometryError, ["view 1", "0 mm"]),
     ("search-execution-type", lambda d: search(VIEW, None, {"chunk": 2}), ConfigError, ["execution", "ExecutionConfig"]),
+    ("poisson-min-component", lambda d: surface.PoissonConfig(min_component=1.5), ConfigError, ["min_component", "[0, 1]", "1.5"]),
     # --- completion choice -------------------------------------------------------------------
     ("completion-batch", lambda d: completion.choose_completion(search_batch([VIEW]), VIEW), ShapeError, ["one view", "index the batch"]),
     ("completion-config-type", lambda d: completion.choose_completion(search(VIEW), VIEW, {"mode": "auto"}), ConfigError, ["config", "CompletionConfig", "dict"]),

@@ -105,9 +105,13 @@ def test_poisson_weights_drop_zero_weight_points():
     assert mesh.is_watertight
     assert np.linalg.norm(mesh.centroid - CENTRE) < 1e-3
     assert mesh_deviation(sphere_mesh(0.03), mesh, n_samples=5000).mean < 1e-3
-    # Without weights both spheres are meshed; the largest piece is either one.
+    # Without weights both spheres are meshed, and both kept (each is far more than 5 % of
+    # the other); keeping the largest component alone leaves one of them.
+    ball = 4 / 3 * np.pi * 0.03**3
     both = poisson_reconstruct(pts, nrm, w, config=dataclasses.replace(cfg, use_weights=False))
-    assert both.volume == pytest.approx(4 / 3 * np.pi * 0.03**3, rel=0.05)
+    assert both.volume == pytest.approx(2 * ball, rel=0.05) and len(both.split()) == 2
+    one = dataclasses.replace(cfg, use_weights=False, min_component=1.0)
+    assert poisson_reconstruct(pts, nrm, w, config=one).volume == pytest.approx(ball, rel=0.05)
 
 
 def test_poisson_batch_matches_single(box_data, strict_ranks):

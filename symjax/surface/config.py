@@ -58,7 +58,11 @@ class PoissonConfig:
         use_weights: Multiply each sample's contribution by its per-point weight (the symmetry
             plausibility; the reference code's ``-withPlaus``).
         min_points: Fewer valid points than this raise :class:`~symjax.errors.EmptyInputError`.
-        keep_largest: Keep only the largest connected component of the iso-surface.
+        min_component: Connected components of the iso-surface with fewer faces than this share
+            of the largest one's are dropped (blobs around stray points: under 1 % on the
+            benchmark); 1 keeps the largest alone. A part seen apart from the rest stays (the
+            spray head of a bottle whose neck gave no depth: 30 % of the body; keeping the
+            largest alone cost those views 16 mm of mean deviation).
         thin_shell: Seen from above, a bowl or an open cup shows mostly its inner surface,
             normals into the cavity: the indicator of such an open sheet is inside-out. With
             ``thin_shell`` > 0 such a cloud is solved again as a wall of this thickness (cells,
@@ -76,7 +80,7 @@ class PoissonConfig:
     density_smoothing: float = 1.5
     use_weights: bool = True
     min_points: int = 20
-    keep_largest: bool = True
+    min_component: float = 0.05
     thin_shell: float = 2.5
     clip_to_hull: bool = True
 
@@ -85,6 +89,11 @@ class PoissonConfig:
         _require(
             isinstance(self.depth, int) and 2 <= self.depth <= 8,
             f"depth must be an int in [2, 8] (paper: 5 or 7), got {self.depth!r}",
+        )
+        _require(
+            0.0 <= self.min_component <= 1.0,
+            f"min_component must be in [0, 1] (a share of the largest component), got"
+            f" {self.min_component!r}",
         )
         _require(self.thin_shell >= 0, f"thin_shell must be >= 0 cells, got {self.thin_shell!r}")
         _require(self.padding > 1.0, f"padding must be > 1, got {self.padding!r}")

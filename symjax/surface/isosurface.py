@@ -31,7 +31,8 @@ class InsideOutError(DegenerateGeometryError):
     an open sheet seen from its concave side (a bowl from above)."""
 
 
-def _largest_component(verts: np.ndarray, faces: np.ndarray):
+def _large_components(verts: np.ndarray, faces: np.ndarray, share: float):
+    """The connected components with at least ``share`` of the largest one's faces."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -42,8 +43,11 @@ def _largest_component(verts: np.ndarray, faces: np.ndarray):
     if n_comp == 1:
         return verts, faces
     face_label = labels[faces[:, 0]]
-    best = np.argmax(np.bincount(face_label, minlength=n_comp))
-    faces = faces[face_label == best]
+    size = np.bincount(face_label, minlength=n_comp)
+    kept = size >= share * size.max()
+    if share >= 1.0:  # the largest alone, even against a twin of its size
+        kept = np.arange(n_comp) == np.argmax(size)
+    faces = faces[kept[face_label]]
     keep = np.zeros(nv, bool)
     keep[faces] = True
     used = np.flatnonzero(keep)
@@ -160,7 +164,7 @@ def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None, hu
 
     Args:
         grid: A single-view :class:`PoissonGrid`.
-        config: Configuration (``keep_largest``).
+        config: Configuration (``min_component``).
         table: A :class:`~symjax.table.TablePlane` the object stands on, or None. The surface
             is cut there and closed by the plane: the indicator is intersected with the half
             space above the table, so the mesh stays closed and its bottom is flat.
@@ -209,8 +213,8 @@ def grid_to_mesh(grid: PoissonGrid, config: PoissonConfig, table: Any = None, hu
     start = np.array([b.start for b in box], np.float64)
     verts = np.asarray(grid.origin, np.float64) + (verts - 1.0 + start) * float(grid.cell)
     faces = faces.astype(np.int64)
-    if config.keep_largest:
-        verts, faces = _largest_component(verts, faces)
+    if config.min_component > 0:
+        verts, faces = _large_components(verts, faces, config.min_component)
     if _signed_volume(verts, faces) < 0:
         faces = faces[:, ::-1]
     if not is_closed(faces, verts.shape[0]):
