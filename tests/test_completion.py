@@ -199,11 +199,13 @@ def test_the_modes_force_their_completion(primitive_views):
 
 
 def test_footprint_hull_contains_the_points_and_their_shadow():
-    # The top face of a box seen from above, one corner dipping under the table (noise).
+    # The top face of a box seen from above, one corner dipping under the table (noise); on a
+    # table at z = 0 and on one 0.7 m up.
     pts = np.array([[0, 0, 0.1], [0.1, 0, 0.1], [0, 0.05, 0.1], [0.1, 0.05, 0.1], [0, 0, -0.01]])
-    hull = footprint_hull(pts, TablePlane.horizontal(0.0))
-    assert hull.is_volume and hull.bounds[0, 2] == pytest.approx(0.0)
-    assert hull.volume == pytest.approx(0.1 * 0.05 * 0.1)
+    for z in (0.0, 0.7):
+        hull = footprint_hull(pts + [0, 0, z], TablePlane.horizontal(z))
+        assert hull.is_volume and hull.bounds[0, 2] == pytest.approx(z)
+        assert hull.volume == pytest.approx(0.1 * 0.05 * 0.1)
     with pytest.raises(DegenerateGeometryError):
         footprint_hull(pts[:2], TablePlane.horizontal(0.0))
 

@@ -59,9 +59,12 @@ def test_the_hull_cut_keeps_a_surface_within_its_points():
     table = TablePlane.horizontal(0.0)
     hull = evidence_hull(p, table)
     # Every point inside (the support function moves merged facets out to their points), and
-    # the footprint takes the hull down to the table.
+    # the footprint takes the hull down to the table, wherever the table is.
     assert (p @ hull[:, :3].T + hull[:, 3]).max() <= 1e-12
     assert hull.shape[0] < 30  # the merged faces of a box, not hundreds of triangles
+    lifted = evidence_hull(p + [0, 0, 0.75], TablePlane.horizontal(0.7))
+    bottom = lifted[np.argmin(lifted[:, 2])]  # the facet facing down: z >= 0.7
+    np.testing.assert_allclose(bottom, [0, 0, -1, 0.7], atol=1e-9)
     cut = poisson_reconstruct(p, n, config=PoissonConfig(depth=7), table=table)
     raw = poisson_reconstruct(p, n, config=PoissonConfig(depth=7, clip_to_hull=False), table=table)
     box = trimesh.creation.box(extents=(0.03, 0.12, 0.16))

@@ -66,7 +66,7 @@ def footprint_hull(points: np.ndarray, table: Any):
     if p.ndim != 2 or p.shape[1] != 3 or len(p) < 3:
         raise DegenerateGeometryError(f"a footprint hull needs >= 3 points (N, 3), got {p.shape}")
     n = np.asarray(table.normal, np.float64)
-    height = p @ n - float(table.offset)
+    height = np.asarray(table.height(p), np.float64)
     p = p - np.minimum(height, 0.0)[:, None] * n
     foot = p - np.maximum(height, 0.0)[:, None] * n
     try:

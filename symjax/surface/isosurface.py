@@ -98,8 +98,7 @@ def evidence_hull(points: np.ndarray, table: Any = None) -> np.ndarray | None:
         p = p[ConvexHull(p).vertices]
         if table is not None:
             n = np.asarray(table.normal, np.float64)
-            n = n / np.linalg.norm(n)
-            p = np.concatenate([p, p - (p @ n - float(table.offset))[:, None] * n])
+            p = np.concatenate([p, p - np.asarray(table.height(p), np.float64)[:, None] * n])
         eq = ConvexHull(p, qhull_options=f"C-{HULL_MERGE}").equations
     except (QhullError, ValueError):
         return None
