@@ -21,6 +21,7 @@ from symjax.errors import DegenerateGeometryError, EmptyInputError, InvalidInput
 __all__ = [
     "as_pose",
     "as_trimesh",
+    "axis_rotation",
     "backproject",
     "bucket",
     "euler_zyx",
@@ -95,6 +96,13 @@ def reflect(points: ArrayLike, normal: ArrayLike, offset: ArrayLike) -> Any:
     """
     dist = points @ normal - offset
     return points - 2.0 * dist[..., None] * normal[None, :]
+
+
+def axis_rotation(axis: ArrayLike, angle: float) -> np.ndarray:
+    """Rotation matrix (3, 3) by ``angle`` radians about the unit ``axis`` (3,) (Rodrigues)."""
+    a = np.asarray(axis, np.float64)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
 
 
 def rot_z(angle: float) -> np.ndarray:

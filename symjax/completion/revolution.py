@@ -19,7 +19,7 @@ import numpy as np
 from symjax.array_types import ArrayLike
 from symjax.completion.config import CompletionConfig
 from symjax.errors import DegenerateGeometryError, ShapeError
-from symjax.geometry import tangent_basis
+from symjax.geometry import axis_rotation, tangent_basis
 from symjax.surface.normals import OrientedPoints
 
 __all__ = ["RevolutionFit", "fit_revolution", "profile_consistent", "revolve"]
@@ -94,12 +94,6 @@ def fit_revolution(
     return RevolutionFit(point, up, radius, residual, int(use.sum()), bool(ok))
 
 
-def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix (3, 3) by ``angle`` radians about the unit ``axis`` (Rodrigues)."""
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
-
-
 def profile_consistent(
     oriented: OrientedPoints, fit: RevolutionFit, tolerance: float
 ) -> np.ndarray:
@@ -150,7 +144,7 @@ def revolve(
     w = np.asarray(oriented.weights, np.float64)
     pts, nrm, wts = [p], [n], [w]
     for k in range(1, copies):
-        R = _rotation(fit.direction, 2.0 * math.pi * k / copies)
+        R = axis_rotation(fit.direction, 2.0 * math.pi * k / copies)
         pts.append(p[keep] @ R.T)
         nrm.append(n[keep] @ R.T)
         wts.append(w[keep])

@@ -17,6 +17,7 @@ import numpy as np
 from symjax.array_types import ArrayLike
 from symjax.completion.config import CompletionConfig
 from symjax.errors import EmptyInputError, ShapeError
+from symjax.geometry import axis_rotation
 
 __all__ = ["SupportIndex", "plane_support"]
 
@@ -67,9 +68,7 @@ class SupportIndex:
         pivot = c - (float(c @ n) - float(offset)) * n
         best = 0.0
         for deg in config.rival_angles_deg:
-            a = math.radians(deg)
-            # Rodrigues about the table normal; n is perpendicular to it.
-            r = n * math.cos(a) + np.cross(up, n) * math.sin(a)
+            r = axis_rotation(up, math.radians(deg)) @ n
             for s in np.linspace(-config.rival_shift, config.rival_shift, 5):
                 best = max(best, self.support(r, float(r @ pivot) + s, config.support_eps))
         return best
