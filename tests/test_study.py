@@ -25,9 +25,11 @@ def cfg(tmp_path_factory):
 def test_one_view_planned_on_each_mesh_and_scored_on_the_truth(cfg):
     view = benchmark(["025_mug/000"], seed=0, workers=1)[0]
     meshes = runner.planning_meshes([view], cfg)[0]
-    assert set(meshes) == {"C", "P"}
-    for k in ("C", "P"):
-        m = meshes[k]
+    assert set(meshes) == {"C", "K", "P"}
+    shapes = meshes["K"]
+    assert shapes.meshes[0] is meshes["C"] and len(shapes) == cfg.completion.shapes
+    assert shapes.weights[0] >= 0.5 and np.isclose(shapes.weights.sum(), 1.0)
+    for m in (meshes["C"], meshes["P"], *shapes.meshes):
         assert m.is_watertight and m.vertices[:, 2].min() >= -1e-6  # cut at the table (z = 0)
     rec = study_view(view, meshes, cfg)
     rows = rec["hands"]["barrett"]
@@ -35,6 +37,11 @@ def test_one_view_planned_on_each_mesh_and_scored_on_the_truth(cfg):
         r = rows[k]
         assert r["error"] is None and r["planned"] >= cfg.top
         assert len(r["predicted"]) == len(r["truth"]) == cfg.top
+        assert r["seconds"] > 0
+    # K's prediction is the weighted mean success over its shapes, best first.
+    assert all(0.0 <= p <= 1.0 for p in rows["K"]["predicted"])
+    assert rows["K"]["predicted"] == sorted(rows["K"]["predicted"], reverse=True)
+    assert rows["K"]["shapes"]["kinds"][0] in ("mirror", "revolution")
     # Planned on the truth and scored on the truth: the same rollouts, bit for bit.
     assert rows["T"]["truth"] == rows["T"]["predicted"]
     assert all(rows["T"]["truth"])  # the top of a plan on the true mug succeeds

@@ -2,13 +2,16 @@
 
 Modules: ``config`` (:class:`CompletionConfig`), ``support`` (the plane's support, the paper's
 case i), ``confidence`` (the plane's calibrated confidence), ``revolution`` (axis fit and
-completion by revolving), ``choice`` (:func:`choose_completion`: the shape a view gets, and why).
+completion by revolving), ``choice`` (:func:`choose_completion`: the shape a view gets, and why),
+``shapes`` (:func:`plausible_shapes`: the K most plausible shapes, weighted, for planning under
+uncertainty).
 """
 
 from symjax.completion.choice import Completion, choose_completion, footprint_hull
 from symjax.completion.confidence import CONFIDENCE_MODEL, plane_confidence, roc_auc
 from symjax.completion.config import CompletionConfig
 from symjax.completion.revolution import RevolutionFit, fit_revolution, revolve
+from symjax.completion.shapes import ShapeSet, distinct_plane, plausible_shapes, shape_weight
 from symjax.completion.support import SupportIndex, plane_support
 
 __all__ = [
@@ -16,12 +19,16 @@ __all__ = [
     "Completion",
     "CompletionConfig",
     "RevolutionFit",
+    "ShapeSet",
     "SupportIndex",
     "choose_completion",
+    "distinct_plane",
     "fit_revolution",
     "footprint_hull",
     "plane_confidence",
     "plane_support",
+    "plausible_shapes",
     "revolve",
     "roc_auc",
+    "shape_weight",
 ]

@@ -41,6 +41,11 @@ class CompletionConfig:
             (0) by default: on the benchmark's flagged views the footprint hull deviated more
             than the mirror it would replace (see the README's completion table).
         flag_below: A plane whose confidence is below this is flagged as likely wrong.
+        shapes: The most plausible shapes of a view for grasping under shape uncertainty
+            (:func:`symjax.completion.plausible_shapes`): the chosen completion, the mirror
+            across the best distinct plane of the search, the footprint hull (1 to 3).
+        distinct_deg: A plane of the search counts as distinct from the found one when their
+            orientations differ by at least this, degrees.
     """
 
     mode: Literal["mirror", "auto", "revolution", "fallback"] = "auto"
@@ -54,6 +59,8 @@ class CompletionConfig:
     revolution_copies: int = 8
     min_confidence: float = 0.0
     flag_below: float = 0.5
+    shapes: int = 3
+    distinct_deg: float = 20.0
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -69,6 +76,10 @@ class CompletionConfig:
         for name in ("revolution_min_tilt", "min_confidence", "flag_below"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ConfigError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
+        if not 1 <= self.shapes <= 3:
+            raise ConfigError(f"shapes must be 1, 2 or 3, got {self.shapes!r}")
+        if not 0.0 < self.distinct_deg < 90.0:
+            raise ConfigError(f"distinct_deg must be in (0, 90) degrees, got {self.distinct_deg!r}")
         for name, low in (("support_samples", 10), ("revolution_min_points", 3),
                           ("revolution_copies", 2)):  # fmt: skip
             if getattr(self, name) < low:

@@ -4,7 +4,7 @@ Modules: ``config`` and ``sim_config`` (settings), ``candidate_set`` (the batch 
 ``approach`` (TCP frames), ``mesh_rays`` (ray casting, inside test), ``candidates`` (the
 generators), ``scene`` (the MjSpec grasp scene), ``schedule`` (open-loop inputs), ``labels``,
 ``backends`` (MJX and C MuJoCo), ``rollout`` (:func:`simulate`), ``quality`` (closure, epsilon),
-``outcomes``, ``planner`` (:func:`plan`, :func:`rank`).
+``outcomes``, ``planner`` (:func:`plan`, :func:`rank`, :func:`robust_scores`).
 """
 
 from symjax.grasp.approach import approach_frame, roll_for_axis
@@ -14,7 +14,7 @@ from symjax.grasp.candidates import METHODS, generate, kth_grasp_points, start_p
 from symjax.grasp.config import PINCH, CandidateConfig
 from symjax.grasp.mesh_rays import cast_rays, inside_mesh, ray_mesh
 from symjax.grasp.outcomes import GraspOutcomes
-from symjax.grasp.planner import GraspPlan, plan, rank
+from symjax.grasp.planner import GraspPlan, plan, rank, robust_scores
 from symjax.grasp.quality import contact_quality, epsilon_l1, force_closure, primitive_wrenches
 from symjax.grasp.rollout import simulate
 from symjax.grasp.scene import GraspScene, build_scene
@@ -44,6 +44,7 @@ __all__ = [
     "plan",
     "primitive_wrenches",
     "rank",
+    "robust_scores",
     "ray_mesh",
     "roll_for_axis",
     "simulate",

@@ -22,9 +22,11 @@ from symjax.grasp.rollout import simulate
 from symjax.grasp.scene import GraspScene, build_scene
 from symjax.grasp.sim_config import SimulationConfig
 
-__all__ = ["RANKINGS", "GraspPlan", "plan", "rank"]
+__all__ = ["RANKINGS", "ROBUST", "GraspPlan", "plan", "rank", "robust_scores"]
 
 RANKINGS = ("success", "quality")
+#: Criteria across plausible shapes: the weighted mean success, or a weighted lower quantile.
+ROBUST = ("mean", "quantile")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,7 +39,12 @@ class GraspPlan:
         order: Index of each ranked candidate in the generator's output, shape (N,).
         candidate_set: The generator's output (counts of dropped candidates).
         backend: Simulation backend used.
-        seconds: ``{"candidates", "scene", "simulate"}`` wall times.
+        seconds: ``{"candidates", "scene", "simulate"}`` wall times (with ``shapes``, also
+            ``"shapes"``: the other shapes' scenes and rollouts).
+        shape_success: With ``shapes``: (K, N) success of each ranked candidate on each shape;
+            else None.
+        robust: With ``shapes``: (N,) the ranking's score across the shapes (the weighted mean
+            success, the planner's predicted success); else None.
     """
 
     candidates: Candidates
@@ -46,6 +53,8 @@ class GraspPlan:
     candidate_set: CandidateSet
     backend: str
     seconds: dict[str, float]
+    shape_success: np.ndarray | None = None
+    robust: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.order)
@@ -56,7 +65,7 @@ class GraspPlan:
         return int(self.order[0])
 
 
-def rank(outcomes: GraspOutcomes, by: str = "success") -> np.ndarray:
+def rank(outcomes: GraspOutcomes, by: str = "success", scores: Any = None) -> np.ndarray:
     """Candidate order, best first.
 
     Args:
@@ -65,6 +74,8 @@ def rank(outcomes: GraspOutcomes, by: str = "success") -> np.ndarray:
             fingers in contact; ``"quality"``: the paper's static criterion alone (force
             closure, epsilon, fingers in contact), as a planner without the dynamic test
             would rank.
+        scores: Keys ranked before all of these, most important first, each (N,), larger is
+            better (the robust scores across shapes, :func:`robust_scores`), or None.
 
     Returns:
         Indices into ``outcomes``, shape (N,). Ties keep the generator's order (stable sort).
@@ -82,7 +93,36 @@ def rank(outcomes: GraspOutcomes, by: str = "success") -> np.ndarray:
     ]
     if by == "success":
         keys.append(-np.asarray(o.success, float))
+    keys += [-np.asarray(k, float) for k in reversed(list(scores or []))]
     return np.lexsort(keys)
+
+
+def robust_scores(
+    success: ArrayLike, weights: ArrayLike, criterion: str = "mean", quantile: float = 0.25
+) -> list[np.ndarray]:
+    """Ranking keys of candidates rolled out on several plausible shapes, most important first.
+
+    Args:
+        success: (K, N) success of each candidate on each shape.
+        weights: (K,) the shapes' probabilities.
+        criterion: ``"mean"``: the weighted mean success; ``"quantile"``: the weighted lower
+            ``quantile`` of the success (1 when the shapes it fails on weigh at most
+            ``quantile``), then the mean.
+        quantile: The quantile of ``"quantile"``, in [0, 1).
+
+    Returns:
+        ``[mean]`` or ``[lower quantile, mean]``, each (N,).
+    """
+    if criterion not in ROBUST:
+        raise unknown_name("robust criterion", criterion, ROBUST)
+    if not 0.0 <= quantile < 1.0:
+        raise InvalidInputError(f"quantile must be in [0, 1), got {quantile!r}")
+    s = np.asarray(success, float)
+    w = np.asarray(weights, float)
+    mean = w @ s
+    if criterion == "mean":
+        return [mean]
+    return [((w @ (1.0 - s)) <= quantile + 1e-12).astype(float), mean]
 
 
 def plan(
@@ -100,6 +140,9 @@ def plan(
     backend: str | None = None,
     grasp_points: ArrayLike = None,
     seed: int = 0,
+    shapes: Any = None,
+    robust: str = "mean",
+    quantile: float = 0.25,
 ) -> GraspPlan:
     """Generates grasp candidates for an object, rolls them all out, and ranks them.
 
@@ -122,6 +165,13 @@ def plan(
         backend: ``"mjx"``, ``"mjx_warp"``, ``"mujoco"`` or None (by device).
         grasp_points: ``"kth"`` grasp points, shape (2, 3).
         seed: Seed of the ``"openrave"`` sampling.
+        shapes: The object's plausible shapes, a :class:`symjax.completion.ShapeSet` (from
+            :func:`symjax.completion.plausible_shapes`); ``mesh`` may then be None (the most
+            plausible shape). The candidates are generated on ``mesh``, rolled out on every
+            shape (the same hand poses; ``hulls``, if given, one decomposition per shape) and
+            ranked by ``robust`` across them, then as :func:`rank` on ``mesh``.
+        robust: ``"mean"`` or ``"quantile"`` (:func:`robust_scores`).
+        quantile: The lower quantile of ``robust="quantile"``.
 
     Returns:
         A :class:`GraspPlan`.
@@ -133,6 +183,24 @@ def plan(
     from symjax.table import TablePlane
 
     hand = as_hand(hand)
+    shape_hulls: list = []
+    if shapes is not None:
+        from symjax.completion.shapes import ShapeSet
+
+        if not isinstance(shapes, ShapeSet):
+            raise InvalidInputError(
+                f"shapes must be a symjax.completion.ShapeSet, got {type(shapes).__name__}"
+            )
+        robust_scores(np.zeros((len(shapes), 0)), shapes.weights, robust, quantile)  # checks
+        mesh = shapes.meshes[0] if mesh is None else mesh
+        if hulls is not None:
+            if not isinstance(hulls, (list, tuple)) or len(hulls) != len(shapes):
+                raise InvalidInputError(
+                    f"with shapes, hulls must be one decomposition per shape ({len(shapes)})"
+                )
+            hulls, shape_hulls = hulls[0], list(hulls[1:])
+        if scene is not None:
+            raise InvalidInputError("shapes and a prebuilt scene exclude each other")
     v, f = mesh_arrays(mesh)
     t0 = time.perf_counter()
     if table is None:
@@ -159,7 +227,18 @@ def plan(
     backend = default_backend() if backend is None else backend
     out = simulate(None, cs.candidates, hand, backend=backend, scene=scene, execution=execution)
     t3 = time.perf_counter()
-    order = rank(out)
+    seconds = {"candidates": t1 - t0, "scene": t2 - t1, "simulate": t3 - t2}
+    success = keys = None
+    if shapes is not None and len(shapes) > 1:
+        success = np.stack([np.asarray(out.success, float)] + [
+            np.asarray(simulate(None, cs.candidates, hand, backend=backend, execution=execution,
+                                scene=build_scene(h, hand, simulation, table=plane,
+                                                  obstacles=obstacles)).success, float)
+            for h in _other_hulls(shapes, shape_hulls)
+        ])  # fmt: skip
+        keys = robust_scores(success, shapes.weights, robust, quantile)
+        seconds["shapes"] = time.perf_counter() - t3
+    order = rank(out, scores=keys)
     ranked = jax.tree_util.tree_map(lambda x: np.asarray(x)[order], cs.candidates)
     return GraspPlan(
         candidates=ranked,
@@ -167,5 +246,16 @@ def plan(
         order=order,
         candidate_set=cs,
         backend=backend,
-        seconds={"candidates": t1 - t0, "scene": t2 - t1, "simulate": t3 - t2},
+        seconds=seconds,
+        shape_success=None if success is None else success[:, order],
+        robust=None if keys is None else keys[-1][order],
     )
+
+
+def _other_hulls(shapes: Any, given: list) -> list:
+    """The decompositions of the shapes after the first: the given ones, else coacd's (cached)."""
+    if given:
+        return given
+    from symjax.decompose import decompose
+
+    return [decompose(m) for m in shapes.meshes[1:]]

@@ -12,9 +12,11 @@ from symjax.validation import check_fields
 
 __all__ = ["PLANNING_MESHES", "StudyConfig"]
 
-#: The meshes grasps are planned on: ``T`` the true mesh, ``C`` the completion (Mir7), ``P`` the
-#: observed points alone (the Delaunay baseline).
-PLANNING_MESHES = ("T", "C", "P")
+#: The meshes grasps are planned on: ``T`` the true mesh, ``C`` the completion (Mir7), ``K`` the
+#: completion's plausible shapes (``completion.shapes`` of them, ranked by ``robust`` across
+#: them; left out when ``completion.shapes`` is 1), ``P`` the observed points alone (the
+#: Delaunay baseline).
+PLANNING_MESHES = ("T", "C", "K", "P")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,6 +35,8 @@ class StudyConfig(ShapeToGraspStages):
         backend: Rollout backend (``"mujoco"``, ``"mjx"``, ``"mjx_warp"`` or None: by device).
         seed: Seed of the benchmark's rendering.
         cache_dir: The benchmark's cache (None = the default).
+        robust: How ``K`` ranks a grasp across the shapes (see
+            :func:`symjax.grasp.robust_scores`): ``"mean"`` or ``"quantile"``.
 
     The stage configs are :class:`~symjax.configs.stages.ShapeToGraspStages`' (Poisson at the
     Mir7 depth).
@@ -53,12 +57,17 @@ class StudyConfig(ShapeToGraspStages):
     backend: Literal["mujoco", "mjx", "mjx_warp"] | None = None
     seed: int = 0
     cache_dir: str | None = None
+    robust: Literal["mean", "quantile"] = "mean"
 
     def __post_init__(self) -> None:
         check_fields(self)
         if self.top < 1 or self.batch < 1:
             raise ConfigError(
                 f"StudyConfig.top and batch must be >= 1, got {self.top}, {self.batch}"
+            )
+        if self.robust not in ("mean", "quantile"):
+            raise ConfigError(
+                f"StudyConfig.robust must be 'mean' or 'quantile', got {self.robust!r}"
             )
         if not self.hands:
             raise ConfigError("StudyConfig.hands is empty; expected (hand, generator) pairs")

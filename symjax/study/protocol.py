@@ -23,14 +23,17 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
 
     Args:
         view: A :class:`symjax.datasets.View` with its true mesh.
-        meshes: ``{"C": mesh or error, "P": mesh or error}`` (world frame); ``T`` is the truth.
+        meshes: ``{"C": mesh or error, "P": mesh or error}`` (world frame), and optionally
+            ``"K"``: the completion's :class:`~symjax.completion.ShapeSet` (its first mesh is
+            C's) or error; ``T`` is the truth.
         cfg: The study's config.
 
     Returns:
         ``{"view", "dataset", "object", "orientation_deg", "seconds", "hands": {hand: {mesh:
         {"planned", "predicted", "truth", "error"}}}}``: per planning mesh the number of
-        candidates planned, and per top grasp its predicted success (on its own mesh) and
-        its success on the truth.
+        candidates planned, and per top grasp its predicted success (on its own mesh; for
+        ``K`` the weighted mean over the shapes) and its success on the truth; ``K`` also has
+        ``"shapes"`` (kinds and weights) and ``"seconds"`` (its extra planning time).
     """
     from symjax import grasp, hands
     from symjax.decompose import decompose
@@ -40,15 +43,27 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
     table = view.observation.table
     meshes = {"T": view.gt_mesh, **meshes}
     decs: dict[str, Any] = {}
+    dec_s: dict[str, float] = {}
     for k in PLANNING_MESHES:
         m = meshes.get(k)
+        if k not in meshes:
+            continue
         if m is None or isinstance(m, (str, SymjaxError)):
             decs[k] = m if m is not None else "no mesh"
             continue
+        t1 = time.perf_counter()
         try:
-            decs[k] = decompose(m, cfg.decompose)
+            if k != "K":
+                decs[k] = decompose(m, cfg.decompose)
+            else:  # the first shape is C's mesh: its decomposition is C's
+                first = decs.get("C") if m.meshes[0] is meshes.get("C") else None
+                first = decompose(m.meshes[0], cfg.decompose) if first is None else first
+                if isinstance(first, str):
+                    raise SymjaxError(first)
+                decs[k] = [first] + [decompose(x, cfg.decompose) for x in m.meshes[1:]]
         except SymjaxError as e:
             decs[k] = one_line(e, 240)
+        dec_s[k] = time.perf_counter() - t1
     if isinstance(decs["T"], str):
         raise SymjaxError(f"{view.name}: the true mesh cannot be decomposed: {decs['T']}")
     rec: dict[str, Any] = {"view": view.name, "dataset": view.dataset, "object": view.object_name,
@@ -58,24 +73,35 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
         truth = grasp.build_scene(decs["T"], hand, cfg.simulation, table=table)
         rows: dict[str, Any] = {}
         tops = []
-        for k in PLANNING_MESHES:
+        for k in (k for k in PLANNING_MESHES if k in decs):
             if isinstance(decs[k], str):
                 rows[k] = {"planned": 0, "predicted": [], "error": str(decs[k])}
                 continue
+            t1 = time.perf_counter()
             try:
-                gp = grasp.plan(meshes[k], hand, gen, hulls=decs[k], table=table,
-                                scene=truth if k == "T" else None, candidates=cfg.candidates,
-                                simulation=cfg.simulation, execution=cfg.execution,
-                                backend=cfg.backend)  # fmt: skip
+                gp = grasp.plan(None if k == "K" else meshes[k], hand, gen, hulls=decs[k],
+                                table=table, scene=truth if k == "T" else None,
+                                candidates=cfg.candidates, simulation=cfg.simulation,
+                                execution=cfg.execution, backend=cfg.backend,
+                                shapes=meshes[k] if k == "K" else None,
+                                robust=cfg.robust)  # fmt: skip
             except SymjaxError as e:
                 rows[k] = {"planned": 0, "predicted": [], "error": one_line(e, 240)}
                 continue
             n = min(cfg.top, len(gp))
-            rows[k] = {
-                "planned": len(gp),
-                "error": None,
-                "predicted": [bool(x) for x in np.asarray(gp.outcomes.success)[:n]],
-            }
+            predicted = np.asarray(gp.outcomes.success, float)[:n] if gp.robust is None else (
+                np.asarray(gp.robust, float)[:n])  # fmt: skip
+            rows[k] = {"planned": len(gp), "error": None,
+                       "predicted": [round(float(x), 4) for x in predicted]}  # fmt: skip
+            # Planning time of this mesh: its decomposition and plan (the rollouts on the truth
+            # are shared by all meshes).
+            rows[k]["seconds"] = round(time.perf_counter() - t1 + dec_s[k], 3)
+            rows[k]["decompose_seconds"] = round(dec_s[k], 3)
+            if k == "K":
+                rows[k]["shapes"] = {
+                    "kinds": list(meshes[k].kinds),
+                    "weights": [round(float(w), 4) for w in meshes[k].weights],
+                }
             tops.append((k, gp.candidates.take(np.arange(n))))
         if tops:
             out = grasp.simulate(
@@ -91,7 +117,7 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
             for k, c in tops:
                 rows[k]["truth"] = [bool(x) for x in ok[i : i + len(c)]]
                 i += len(c)
-        for k in PLANNING_MESHES:
+        for k in rows:
             rows[k].setdefault("truth", [])
         rec["hands"][hand_name] = rows
     rec["seconds"] = round(time.perf_counter() - t0, 3)

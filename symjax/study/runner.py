@@ -39,10 +39,13 @@ def study_views(cfg: StudyConfig) -> list[tuple[str, Callable[[], Any]]]:
 
 
 def planning_meshes(views: list, cfg: StudyConfig) -> list[dict[str, Any]]:
-    """``{"C": mesh or error text, "P": ...}`` per view: C by one batched search and Poisson
-    solve (cut at each view's table), P the Delaunay baseline cut there (the grasp cycle's
+    """``{"C": mesh or error text, "K": ShapeSet or error text, "P": ...}`` per view: C by one
+    batched search and Poisson solve (cut at each view's table), K its plausible shapes
+    (:func:`~symjax.completion.plausible_shapes`, C first; only with ``completion.shapes`` > 1),
+    P the Delaunay baseline cut there (the grasp cycle's
     :func:`~symjax.cycle.shapes.completed_meshes` and
     :func:`~symjax.cycle.shapes.baseline_meshes`)."""
+    from symjax.completion import plausible_shapes
     from symjax.cycle.shapes import baseline_meshes, completed_meshes
 
     obs = [v.observation for v in views]
@@ -51,8 +54,17 @@ def planning_meshes(views: list, cfg: StudyConfig) -> list[dict[str, Any]]:
     def kept(m):
         return one_line(m, 240) if isinstance(m, SymjaxError) else m
 
-    done = zip(completed_meshes(obs, tables, cfg), baseline_meshes(obs, tables, cfg), strict=True)
-    return [{"C": kept(c), "P": kept(p)} for c, p in done]
+    base = baseline_meshes(obs, tables, cfg)
+    if cfg.completion.shapes == 1:
+        return [{"C": kept(c), "P": kept(p)}
+                for c, p in zip(completed_meshes(obs, tables, cfg), base, strict=True)]  # fmt: skip
+    # The shapes' first is the view's completion, meshed as completed_meshes meshes it (a view's
+    # Poisson mesh does not depend on the batch).
+    out = []
+    for k, p in zip(plausible_shapes(obs, cfg), base, strict=True):
+        c = k if isinstance(k, SymjaxError) else k.meshes[0]
+        out.append({"C": kept(c), "K": kept(k), "P": kept(p)})
+    return out
 
 
 def _file(out: Path, name: str) -> Path:

@@ -20,33 +20,56 @@ def _rates(rows: list[dict], top: int) -> dict[str, Any]:
     truth = sum(sum(r["truth"]) for r in rows)
     n_grasps = sum(len(r["truth"]) for r in rows)
     pred = sum(sum(r["predicted"]) for r in rows)
-    return {
+    secs = [r["seconds"] for r in rows if "seconds" in r]
+    out = {
         "views": len(rows),
         "no_plan": sum(not r["truth"] for r in rows),
         "success": round(100 * truth / max(top * len(rows), 1), 2),
         "success_of_planned": round(100 * truth / max(n_grasps, 1), 2),
         "predicted": round(100 * pred / max(n_grasps, 1), 2),
     }
+    # How far the planner's own prediction is from the truth, on the grasps it chose.
+    out["overconfidence"] = round(out["predicted"] - out["success_of_planned"], 2)
+    if secs:
+        out["seconds_median"] = round(float(np.median(secs)), 3)
+    return out
+
+
+def _meshes(records: list[dict], hand: str) -> list[str]:
+    """The planning meshes every record of the hand has, in PLANNING_MESHES order."""
+    have = [set(r["hands"][hand]) for r in records if hand in r["hands"]]
+    return [k for k in PLANNING_MESHES if have and all(k in h for h in have)]
 
 
 def summarise(records: list[dict], top: int) -> dict[str, Any]:
-    """``{"hands": {hand: {mesh: rates, "T-C", "T-P"}}, "by_object", "by_orientation"}``."""
+    """``{"hands": {hand: {mesh: rates, "T-C", "T-P"[, "T-K", "K_extra_seconds_median"]}},
+    "by_object", "by_orientation"}``."""
     good = [r for r in records if r.get("hands")]
     hands = sorted({h for r in good for h in r["hands"]})
     out: dict[str, Any] = {"views": len(good), "failed_views": len(records) - len(good),
                            "hands": {}, "by_object": {}, "by_orientation": {}}  # fmt: skip
     for h in hands:
-        per = {k: _rates([r["hands"][h][k] for r in good if h in r["hands"]], top)
-               for k in PLANNING_MESHES}  # fmt: skip
-        per["T-C"] = round(per["T"]["success"] - per["C"]["success"], 2)
-        per["T-P"] = round(per["T"]["success"] - per["P"]["success"], 2)
+        keys = _meshes(good, h)
+        per = {k: _rates([r["hands"][h][k] for r in good if h in r["hands"]], top) for k in keys}
+        for k in ("C", "K", "P"):
+            if k in per:
+                per[f"T-{k}"] = round(per["T"]["success"] - per[k]["success"], 2)
+        if "K" in per:
+            # K's planning beyond C's: the other shapes' decompositions and rollouts (its plan
+            # repeats C's rollouts on the first shape; C's own decomposition is shared).
+            extra = [r["hands"][h]["K"]["seconds"] - r["hands"][h]["C"]["seconds"]
+                     + r["hands"][h]["C"].get("decompose_seconds", 0.0)
+                     for r in good if h in r["hands"] and "seconds" in r["hands"][h]["K"]
+                     and "seconds" in r["hands"][h]["C"]]  # fmt: skip
+            if extra:
+                per["K_extra_seconds_median"] = round(float(np.median(extra)), 3)
         out["hands"][h] = per
         for group, field in (("by_object", "object"), ("by_orientation", "orientation_deg")):
-            keys = sorted({str(r[field]) for r in good})
+            groups = sorted({str(r[field]) for r in good})
             out[group][h] = {key: {k: _rates([r["hands"][h][k] for r in good
                                               if str(r[field]) == key and h in r["hands"]],
-                                             top)["success"] for k in PLANNING_MESHES}
-                             for key in keys}  # fmt: skip
+                                             top)["success"] for k in keys}
+                             for key in groups}  # fmt: skip
     return out
 
 
@@ -59,16 +82,17 @@ def _figure(summary: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     hands = list(summary["hands"])
+    keys = [k for k in PLANNING_MESHES if all(k in summary["hands"][h] for h in hands)]
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    w = 0.25
-    for j, k in enumerate(PLANNING_MESHES):
-        ax[0].bar(np.arange(len(hands)) + (j - 1) * w,
+    w = 0.8 / len(keys)
+    for j, k in enumerate(keys):
+        ax[0].bar(np.arange(len(hands)) + (j - (len(keys) - 1) / 2) * w,
                   [summary["hands"][h][k]["success"] for h in hands], w, label=k)  # fmt: skip
     ax[0].set_xticks(np.arange(len(hands)), hands)
     ax[0].set_ylabel("success on the true object, % of top grasps")
     ax[0].set_ylim(0, 100)
     ax[0].legend(title="planned on")
-    for k, mk in zip(PLANNING_MESHES, "os^", strict=True):
+    for k, mk in zip(keys, "osD^", strict=False):
         for h in hands:
             r = summary["hands"][h][k]
             ax[1].scatter(r["predicted"], r["success_of_planned"], marker=mk, s=60,
@@ -97,19 +121,27 @@ def write_report(records: list[dict], out_dir: Any, top: int, command: str = "")
         lines += [f"`{command}`", ""]
     lines += [f"{s['views']} views ({s['failed_views']} failed); top {top} grasps of each"
               " planning mesh rolled out on the true object.", "",
-              "| hand | T | C | P | T-C | T-P | predicted on C | no plan C / P |",
-              "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+              "| hand | T | C | K | P | T-C | T-K | T-P | predicted on C / K | no plan C / P |"
+              " K's extra planning time (median) |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for h, r in s["hands"].items():
-        lines.append(f"| {h} | {r['T']['success']} | {r['C']['success']} | {r['P']['success']} |"
-                     f" {r['T-C']} | {r['T-P']} | {r['C']['predicted']} |"
-                     f" {r['C']['no_plan']} / {r['P']['no_plan']} |")  # fmt: skip
-    lines += ["", "Success in % of the top grasps (a view without a plan counts 0).", "",
+        k = r.get("K", {})
+        lines.append(f"| {h} | {r['T']['success']} | {r['C']['success']} |"
+                     f" {k.get('success', '-')} | {r['P']['success']} | {r['T-C']} |"
+                     f" {r.get('T-K', '-')} | {r['T-P']} | {r['C']['predicted']} /"
+                     f" {k.get('predicted', '-')} | {r['C']['no_plan']} / {r['P']['no_plan']} |"
+                     f" {r.get('K_extra_seconds_median', '-')} s |")  # fmt: skip
+    lines += ["", "Success in % of the top grasps (a view without a plan counts 0). K: the"
+              " completion's plausible shapes, each grasp ranked by its success across them"
+              " (predicted: the weighted mean over the shapes).", "",
               "![study](study.png)", ""]  # fmt: skip
     for group in ("by_object", "by_orientation"):
         lines += [f"## Success on the truth {group.replace('_', ' ')}", ""]
         for h, table in s[group].items():
-            lines += [f"| {h} | T | C | P |", "|---|---|---|---|"]
-            lines += [f"| {k} | {v['T']} | {v['C']} | {v['P']} |" for k, v in table.items()]
+            cols = list(next(iter(table.values())))
+            lines += [f"| {h} | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+            lines += [f"| {k} | " + " | ".join(str(v[c]) for c in cols) + " |"
+                      for k, v in table.items()]  # fmt: skip
             lines.append("")
     atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
     return s

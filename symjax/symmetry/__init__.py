@@ -8,7 +8,7 @@ Modules: ``config`` (search parameters), ``view`` (a view packed for the kernels
 from symjax.symmetry.config import SymmetryConfig
 from symjax.symmetry.result import SymmetryResult
 from symjax.symmetry.scoring import reflect, score_planes
-from symjax.symmetry.solver import complete, search, search_batch
+from symjax.symmetry.solver import complete, mirror_across, search, search_batch
 from symjax.symmetry.view import ViewArrays, prepare_view
 
 __all__ = [
@@ -16,6 +16,7 @@ __all__ = [
     "SymmetryResult",
     "ViewArrays",
     "complete",
+    "mirror_across",
     "prepare_view",
     "reflect",
     "score_planes",

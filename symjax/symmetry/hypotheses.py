@@ -13,7 +13,7 @@ from symjax.symmetry.result import SymmetryResult
 from symjax.symmetry.scoring import _dot, point_terms, reflect, score_planes
 from symjax.symmetry.view import ViewArrays
 
-__all__ = ["search_view"]
+__all__ = ["mirror_view", "search_view"]
 
 SAMPLE_POINTS = 4096
 
@@ -124,6 +124,27 @@ def _plane_grid(n, m0, c, angles, shifts):
     return jnp.repeat(normals, S, axis=0), offsets.reshape(-1)
 
 
+def mirror_view(view: ViewArrays, normal, offset, config: SymmetryConfig):
+    """The view's points mirrored across one plane, which of them the completion keeps (not in
+    front of an observed surface) and their plausibility (traced).
+
+    Args:
+        view: One packed view, N points.
+        normal: (3,) unit plane normal; offset: () the plane's offset, metres.
+        config: The vote's tolerance and the plausibility scales.
+
+    Returns:
+        ``(mirrored (N, 3), keep (N,) bool, plausibility (N,) in [0, 1], 0 for invalid points)``.
+    """
+    mirrored = reflect(view.points, normal, offset)
+    delta1, delta2, _ = point_terms(view, mirrored, config)
+    keep = view.valid & (delta2 <= 0.0)
+    plaus = jnp.exp(-delta1 / config.plausibility_px**2) * jnp.exp(
+        -delta2 / config.plausibility_depth
+    )
+    return mirrored, keep, jnp.where(view.valid, plaus, 0.0)
+
+
 def search_view(
     view: ViewArrays, config: SymmetryConfig, gate, chunk_planes: int = 256
 ) -> SymmetryResult:
@@ -219,12 +240,7 @@ def search_view(
 
     normal = jnp.cos(best_a) * m0 + jnp.sin(best_a) * side
     offset = normal @ c + best_s
-    mirrored = reflect(view.points, normal, offset)
-    delta1, delta2, _ = point_terms(view, mirrored, config)
-    keep = view.valid & (delta2 <= 0.0)
-    plaus = jnp.exp(-delta1 / config.plausibility_px**2) * jnp.exp(
-        -delta2 / config.plausibility_depth
-    )
+    mirrored, keep, plaus = mirror_view(view, normal, offset, config)
     R = config.n_refine
     return SymmetryResult(
         normal=normal,
@@ -249,5 +265,5 @@ def search_view(
         valid=view.valid,
         mirrored=mirrored,
         mirrored_keep=keep,
-        plausibility=jnp.where(view.valid, plaus, 0.0),
+        plausibility=plaus,
     )

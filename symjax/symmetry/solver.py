@@ -27,11 +27,11 @@ from symjax.execution import ExecutionConfig
 from symjax.geometry import cloud_bucket, reflect
 from symjax.observation import Observation
 from symjax.symmetry.config import SymmetryConfig
-from symjax.symmetry.hypotheses import search_view
+from symjax.symmetry.hypotheses import mirror_view, search_view
 from symjax.symmetry.result import SymmetryResult
 from symjax.symmetry.view import ViewArrays, aligned_stack, prepare_view
 
-__all__ = ["complete", "search", "search_batch"]
+__all__ = ["complete", "mirror_across", "search", "search_batch"]
 
 
 def _search_one(view: ViewArrays, cfg: SymmetryConfig, chunk_planes: int) -> SymmetryResult:
@@ -276,3 +276,51 @@ def complete(
         observations = [observations]
     res = search_batch(observations, config, execution)
     return [res[i].completed_cloud() for i in range(len(res))]
+
+
+_mirror_jit = jax.jit(mirror_view, static_argnums=3)
+
+
+def mirror_across(
+    result: SymmetryResult,
+    obs: Observation,
+    normal: np.ndarray,
+    offset: float,
+    config: SymmetryConfig | None = None,
+) -> SymmetryResult:
+    """The view's completion across another plane than the one its search found.
+
+    The points are mirrored, kept and weighted as the search does for its best plane (one
+    jitted call per point bucket); the plane's fields are replaced, the search's votes kept.
+
+    Args:
+        result: A single-view :class:`SymmetryResult` of ``obs`` (its point padding is kept).
+        obs: The observation it was searched on.
+        normal: (3,) plane normal (normalised here); offset: the plane's offset, metres.
+        config: The search's parameters (tolerance, plausibility scales).
+
+    Returns:
+        A :class:`SymmetryResult` whose ``normal``, ``offset``, ``mirrored``, ``mirrored_keep``
+        and ``plausibility`` are those of the given plane.
+
+    Raises:
+        ShapeError: ``result`` is a batch.
+        InvalidInputError: The normal is not finite or is zero.
+    """
+    from symjax.errors import ShapeError
+
+    cfg = config_or_default(config, SymmetryConfig)
+    if np.ndim(result.points) != 2:
+        raise ShapeError("mirror_across() needs one view; index the batch first: result[i]")
+    n = np.asarray(normal, np.float64).reshape(-1)
+    norm = float(np.linalg.norm(n)) if n.shape == (3,) else 0.0
+    if not (np.isfinite(norm) and norm > 1e-9 and np.isfinite(offset)):
+        raise InvalidInputError(f"plane normal {n.tolist()} / offset {offset}: expected a finite"
+                                " non-zero (3,) normal and a finite offset")  # fmt: skip
+    view = prepare_view(obs, int(np.shape(result.points)[0]))
+    n32 = np.asarray(n / norm, np.float32)
+    mirrored, keep, plaus = _mirror_jit(view, n32, np.float32(offset), cfg)
+    return dataclasses.replace(
+        result, normal=n32, offset=np.float32(offset), mirrored=np.asarray(mirrored),
+        mirrored_keep=np.asarray(keep), plausibility=np.asarray(plaus),
+    )  # fmt: skip
