@@ -240,6 +240,11 @@ def _nan_grasp():
     return motion.GraspPose((np.full(3, np.nan), g.pregrasp[1]), g.grasp, 1)
 
 
+def _two_shapes():
+    return completion.ShapeSet((BOX, BOX.copy()), np.array([0.75, 0.25]), ("mirror", "fallback"),
+                               ("a", "b"))  # fmt: skip
+
+
 def _decomposition():
     from symjax.decompose import Decomposition
 
@@ -334,6 +339,18 @@ CASES = [
     ("support-no-points", lambda d: completion.plane_support(np.full((4, 3), np.nan), [0, 1, 0], 0.0), EmptyInputError, ["finite observed point"]),
     ("revolution-normal", lambda d: completion.fit_revolution(surface.oriented_observation(PTS, VIEW.camera), [0, 0, 2]), ShapeError, ["table_normal", "unit vector"]),
     ("footprint-hull-few", lambda d: completion.footprint_hull(PTS[:2], VIEW.table), DegenerateGeometryError, [">= 3 points", "(2, 3)"]),
+    ("completion-shapes-count", lambda d: completion.CompletionConfig(shapes=4), ConfigError, ["shapes", "1, 2 or 3", "4"]),
+    ("completion-distinct-deg", lambda d: completion.CompletionConfig(distinct_deg=90.0), ConfigError, ["distinct_deg", "(0, 90)"]),
+    ("shapeset-weights", lambda d: completion.ShapeSet((BOX, BOX), np.array([0.7, 0.7]), ("a", "b"), ("x", "y")), InvalidInputError, ["weights", "summing to 1"]),
+    ("shapeset-lengths", lambda d: completion.ShapeSet((BOX,), np.ones(2) / 2, ("a",), ("x",)), InvalidInputError, ["1 meshes", "weights (2,)"]),
+    ("mirror-across-batch", lambda d: symjax.symmetry.mirror_across(search_batch([VIEW]), VIEW, [0, 1, 0], 0.0), ShapeError, ["one view", "index the batch"]),
+    ("mirror-across-zero-normal", lambda d: symjax.symmetry.mirror_across(search(VIEW), VIEW, [0, 0, 0], 0.0), InvalidInputError, ["normal", "non-zero"]),
+    ("plan-shapes-type", lambda d: grasp.plan(BOX, SDH, "uji", shapes=[BOX, BOX]), InvalidInputError, ["shapes", "ShapeSet", "list"]),
+    ("plan-shapes-robust", lambda d: grasp.plan(BOX, SDH, "uji", shapes=completion.ShapeSet.single(BOX), robust="median"), UnknownNameError, ["median", "mean", "quantile"]),
+    ("plan-shapes-quantile", lambda d: grasp.plan(BOX, SDH, "uji", shapes=completion.ShapeSet.single(BOX), robust="quantile", quantile=1.0), InvalidInputError, ["quantile", "[0, 1)", "1.0"]),
+    ("plan-shapes-hulls", lambda d: grasp.plan(None, SDH, "uji", shapes=_two_shapes(), hulls=_hulls()), InvalidInputError, ["one decomposition per shape", "(2)"]),
+    ("plan-shapes-scene", lambda d: grasp.plan(None, SDH, "uji", shapes=_two_shapes(), scene=grasp.build_scene(_hulls(), SDH)), InvalidInputError, ["shapes", "prebuilt scene"]),
+    ("study-config-robust", lambda d: study.StudyConfig(robust="median"), ConfigError, ["robust", "'mean'", "'median'"]),
     # --- surface and metrics -----------------------------------------------------------------
     ("poisson-shape", lambda d: surface.poisson_reconstruct(PTS, PTS[:, :2]), ShapeError, ["normals", "shape"]),
     ("poisson-zero-normals", lambda d: surface.poisson_reconstruct(PTS, np.zeros_like(PTS)), DegenerateGeometryError, ["zero length", "unit normals"]),

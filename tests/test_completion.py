@@ -234,3 +234,48 @@ def test_a_batch_result_is_refused(primitive_views):
 def test_bad_completion_config_is_refused(kw):
     with pytest.raises(ConfigError):
         CompletionConfig(**kw)
+
+
+# ------------------------------------------------------------------------- plausible shapes --
+
+
+def test_the_distinct_plane_is_the_best_vote_far_enough_from_the_found_one(primitive_views):
+    from symjax.completion import distinct_plane
+
+    obs, res = primitive_views
+    r = res[1]
+    n, offset, vote = distinct_plane(r, obs[1].table.normal, 20.0)
+    found = np.asarray(r.normal, float)
+    assert np.degrees(np.arccos(min(1.0, abs(n @ found)))) >= 20.0 - 1e-6
+    # Brute force over the first grid: the planes' normals from their angles, as the search does.
+    s, t = np.asarray(r.initial_axis, float), np.asarray(obs[1].table.normal, float)
+    m0 = np.cross(t, s)
+    best = np.inf
+    for i, j in np.ndindex(np.shape(r.angles)):
+        a = float(np.asarray(r.angles)[i, j])
+        m = math.cos(a) * m0 + math.sin(a) * np.cross(t, m0)
+        if np.degrees(np.arccos(min(1.0, abs(m @ found)))) >= 20.0:
+            best = min(best, float(np.asarray(r.votes)[i, j].min()))
+    assert vote == pytest.approx(best)
+    assert distinct_plane(r, obs[1].table.normal, 89.9) is None  # the fan spans +-20 deg
+
+
+def test_plausible_shapes_of_a_box_weigh_the_found_mirror_most(primitive_views):
+    from symjax import configs
+    from symjax.completion import plausible_shapes
+    from symjax.cycle.shapes import completed_meshes
+
+    obs, res = primitive_views
+    cfg = configs.load("study")
+    box = plausible_shapes([obs[1]], cfg, search=search_batch([obs[1]]))[0]
+    assert box.kinds == ("mirror", "alternative mirror", "fallback")
+    c = choose_completion(res[1], obs[1])
+    assert box.weights[0] == pytest.approx((1 + c.confidence) / 2, abs=1e-6)
+    assert box.weights[1] == pytest.approx(box.weights[2]) and box.weights.sum() == pytest.approx(1)
+    for m in box.meshes:
+        assert m.is_watertight and m.bounds[0, 2] >= obs[1].table.offset - 1e-6
+    # The first shape is the completion every other stage meshes.
+    first = completed_meshes([obs[1]], [obs[1].table], cfg)[0]
+    np.testing.assert_array_equal(box.meshes[0].vertices, first.vertices)
+    one = dataclasses.replace(cfg, completion=CompletionConfig(shapes=1))
+    assert len(plausible_shapes([obs[1]], one)[0]) == 1

@@ -38,7 +38,7 @@ def _config(mode, cache):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("mode", ["T", "C"])
+@pytest.mark.parametrize("mode", ["T", "C", "K"])
 def test_one_object_is_cleared_without_collision(one_can, cache, mode):
     rep = cycle.clear_table(one_can, "uji", _config(mode, cache), pictures=True)
     assert rep.n_cleared == 1 and rep.cleared_share == 1.0, rep.objects

@@ -417,3 +417,45 @@ def test_batches_are_sharded_over_local_devices():
     env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2"}
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert r.returncode == 0 and r.stdout.strip().endswith("ok"), r.stderr[-2000:]
+
+
+def test_robust_scores_against_a_loop_over_candidates():
+    rng = np.random.default_rng(0)
+    s = rng.random((3, 40)) < 0.6
+    w = np.array([0.6, 0.3, 0.1])
+    mean = [sum(w[k] * s[k, i] for k in range(3)) for i in range(40)]
+    (got,) = grasp.robust_scores(s, w)
+    np.testing.assert_allclose(got, mean)
+    q, m = grasp.robust_scores(s, w, "quantile", 0.3)
+    failed = [sum(w[k] for k in range(3) if not s[k, i]) for i in range(40)]
+    np.testing.assert_array_equal(q, [float(x <= 0.3 + 1e-12) for x in failed])
+    np.testing.assert_allclose(m, mean)
+
+
+def test_plan_on_plausible_shapes_ranks_by_the_weighted_success(objects, hand_models):
+    """The candidates of the first shape rolled out on each shape as plain simulate calls;
+    the plan's order is by the weighted mean of those, then the first shape's own ranking."""
+    from symjax.completion import ShapeSet
+
+    v, f = objects["box"]
+    hand = hand_models["barrett"]
+    wide = trimesh.creation.box([0.3, 0.3, 0.12])  # a wrong, far wider completion of the box
+    wide.apply_translation([0.5, 0.1, 0.06])
+    shapes = ShapeSet((trimesh.Trimesh(v, f), wide), np.array([0.7, 0.3]), ("mirror", "fallback"),
+                      ("a", "b"))  # fmt: skip
+    wv, wf = np.asarray(wide.vertices), np.asarray(wide.faces)
+    p = plan(None, hand, "uji", shapes=shapes, hulls=[[(v, f)], [(wv, wf)]], candidates=SMALL,
+             backend="mujoco")  # fmt: skip
+    alone = plan((v, f), hand, "uji", hulls=[(v, f)], candidates=SMALL, backend="mujoco")
+    cands = alone.candidate_set.candidates
+    on = [grasp.simulate(None, cands, hand, backend="mujoco", scene=grasp.build_scene(h, hand))
+          for h in ([(v, f)], [(wv, wf)])]  # fmt: skip
+    s = np.stack([np.asarray(o.success, float) for o in on])
+    mean = 0.7 * s[0] + 0.3 * s[1]
+    np.testing.assert_array_equal(p.shape_success, s[:, p.order])
+    np.testing.assert_allclose(p.robust, mean[p.order])
+    assert np.all(np.diff(p.robust) <= 0)  # best first
+    expected = rank(on[0], scores=[mean])
+    np.testing.assert_array_equal(p.order, expected)
+    assert 0 < s[0].sum() and s[1].sum() < s[0].sum()  # the wide box is harder: it matters
+    assert set(p.seconds) >= {"candidates", "scene", "simulate", "shapes"}

@@ -27,7 +27,8 @@ class ClearTableCommand(PresetArgs):
         config: Preset name or TOML path (default ``cycle``, the cycle's own).
         robots: Robots to run (kth, uji).
         scenes: Seeded scenes per robot.
-        modes: Ways to run each scene: C completion, P observed points, T true meshes.
+        modes: Ways to run each scene: C completion, P observed points, T true meshes; K (not
+            by default) the completion's plausible shapes, grasps ranked across them.
         min_objects: Fewest objects in a scene (1-6).
         max_objects: Most objects in a scene (1-6); the counts cycle from min to max.
         seed: Seed of the first scene (scene s has seed + s).
@@ -39,7 +40,7 @@ class ClearTableCommand(PresetArgs):
     config: str = "cycle"
     robots: tuple[Literal["kth", "uji"], ...] = ("kth", "uji")
     scenes: int = 20
-    modes: tuple[Literal["C", "P", "T"], ...] = ("C", "P", "T")
+    modes: tuple[Literal["C", "K", "P", "T"], ...] = ("C", "P", "T")
     min_objects: int = 2
     max_objects: int = 5
     seed: int = 0

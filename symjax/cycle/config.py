@@ -15,9 +15,10 @@ from symjax.validation import check_fields
 __all__ = ["MODES", "STAGES", "CycleConfig"]
 
 #: What the planners see of each object: ``C`` the symmetry completion (Poisson, the paper's
-#: Mir7), ``P`` the observed points alone (the paper's Delaunay baseline), ``T`` the true mesh
-#: (an oracle; needs a simulated scene).
-MODES = ("C", "P", "T")
+#: Mir7), ``K`` the completion's plausible shapes (:func:`symjax.completion.plausible_shapes`;
+#: grasps ranked across them, the arm planned on the first), ``P`` the observed points alone
+#: (the paper's Delaunay baseline), ``T`` the true mesh (an oracle; needs a simulated scene).
+MODES = ("C", "K", "P", "T")
 
 #: The paper's functions of Algorithm 1, in order.
 STAGES = (
@@ -54,7 +55,7 @@ class CycleConfig(ShapeToGraspStages):
             :class:`~symjax.configs.stages.ShapeToGraspStages`' (Poisson at the Mir7 depth).
     """
 
-    mode: Literal["C", "P", "T"] = "C"
+    mode: Literal["C", "K", "P", "T"] = "C"
     arm_grasps: int = 0
     attempts_per_object: int = 2
     dropoff_radius: float = 0.2
@@ -68,7 +69,7 @@ class CycleConfig(ShapeToGraspStages):
     def __post_init__(self) -> None:
         check_fields(self)
         if self.mode not in MODES:
-            raise ConfigError(f"CycleConfig.mode = {self.mode!r}; expected one of C, P, T")
+            raise ConfigError(f"CycleConfig.mode = {self.mode!r}; expected one of C, K, P, T")
         if self.arm_grasps < 0 or self.attempts_per_object < 1:
             raise ConfigError(
                 f"CycleConfig.arm_grasps = {self.arm_grasps} must be >= 0 (0 = all) and"

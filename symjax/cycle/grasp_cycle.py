@@ -32,8 +32,9 @@ def _frame(world: Any, data: Any) -> tuple[Any, Any]:
     return data.depth, data.camera
 
 
-def _plan_object(i, meshes, decs, ts, robot, hand, cfg, names) -> tuple[dict, Any]:
-    """GetGraspCandidates, PlanGrasp and PlanArmTrajectory for hypothesis ``i``.
+def _plan_object(i, meshes, decs, ts, robot, hand, cfg, names, shapes=None) -> tuple[dict, Any]:
+    """GetGraspCandidates, PlanGrasp and PlanArmTrajectory for hypothesis ``i``; with
+    ``shapes`` (mode ``K``) the grasps are ranked across them (the others decomposed here).
 
     Returns the try's record and the first ``ok`` arm plan (or None); stage times are added
     to the record under ``"seconds"``.
@@ -48,14 +49,20 @@ def _plan_object(i, meshes, decs, ts, robot, hand, cfg, names) -> tuple[dict, An
             return rec, None
     others = [d for j, d in enumerate(decs) if j != i and not isinstance(d, SymjaxError)]
     try:
-        gp = grasp.plan(meshes[i], hand, GENERATORS[robot.name], hulls=decs[i], table=ts.table,
+        hulls = decs[i]
+        if shapes is not None:
+            from symjax.decompose import decompose
+
+            hulls = [hulls] + [decompose(m, cfg.decompose) for m in shapes.meshes[1:]]
+        gp = grasp.plan(meshes[i], hand, GENERATORS[robot.name], hulls=hulls, table=ts.table,
                         obstacles=others, candidates=cfg.candidates, simulation=cfg.simulation,
-                        execution=cfg.execution, backend=cfg.backend)  # fmt: skip
+                        execution=cfg.execution, backend=cfg.backend, shapes=shapes)  # fmt: skip
     except SymjaxError as e:
         rec.update(stage="GetGraspCandidates", reason=one_line(e, 240))
         return rec, None
     rec["seconds"] = {"GetGraspCandidates": gp.seconds["candidates"],
-                      "PlanGrasp": gp.seconds["scene"] + gp.seconds["simulate"]}  # fmt: skip
+                      "PlanGrasp": gp.seconds["scene"] + gp.seconds["simulate"]
+                      + gp.seconds.get("shapes", 0.0)}  # fmt: skip
     rec["candidates"] = len(gp)
     o = gp.outcomes.numpy()
     rec["stable"] = int(np.sum(o.success))
@@ -171,6 +178,9 @@ def clear_table(
             truth_m = [world.true_mesh(j) if j >= 0 else None for j in match]
             truth_d = [world.true_hulls(j) if j >= 0 else None for j in match]
         meshes = predict_shapes(ts, cfg, truth_m)
+        sets = meshes if cfg.mode == "K" else None
+        if sets is not None:  # the first shape stands for the object everywhere but PlanGrasp
+            meshes = [s if isinstance(s, SymjaxError) else s.meshes[0] for s in sets]
         sec["PredictObjectShape"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         decs = decompose_shapes(meshes, cfg, truth_d)
@@ -180,7 +190,8 @@ def clear_table(
             obj = world.names[world.alive[match[i]]] if match[i] >= 0 else None
             if obj is not None and outcome[obj]["attempts"] >= cfg.attempts_per_object:
                 continue
-            rec, plan = _plan_object(i, meshes, decs, ts, r, hand, cfg, names)
+            rec, plan = _plan_object(i, meshes, decs, ts, r, hand, cfg, names,
+                                     None if sets is None else sets[i])  # fmt: skip
             rec["object"] = obj
             for s, v in rec.pop("seconds").items():
                 sec[s] = sec.get(s, 0.0) + v

@@ -69,7 +69,7 @@ class CycleReport:
 
     Attributes:
         robot: ``"kth"`` or ``"uji"``.
-        mode: ``"C"``, ``"P"`` or ``"T"``.
+        mode: ``"C"``, ``"K"``, ``"P"`` or ``"T"``.
         objects: One :class:`ObjectOutcome` per object on the table at the start.
         rounds: The rounds, in order.
         stop: Why the cycle stopped: ``"table clear"``, ``"nothing plans"``, ``"attempts

@@ -109,13 +109,18 @@ def baseline_meshes(observations: list, tables: list, cfg: Any) -> list:
 
 
 def predict_shapes(ts: Any, cfg: CycleConfig, truth: list | None = None) -> list:
-    """One mesh (``trimesh.Trimesh``, world frame) or the :class:`SymjaxError` per hypothesis.
+    """One mesh (``trimesh.Trimesh``, world frame) or the :class:`SymjaxError` per hypothesis;
+    in mode ``K`` one :class:`~symjax.completion.ShapeSet` (or the error).
 
     Args:
         ts: The frame's :class:`symjax.perception.TableScene`.
         cfg: The cycle's config (its ``mode`` picks the shape).
         truth: For ``T``: per hypothesis the matched true mesh, or None (unmatched).
     """
+    if cfg.mode == "K":
+        from symjax.completion import plausible_shapes
+
+        return plausible_shapes(ts.objects, cfg)
     if cfg.mode in ("C", "P"):
         make = completed_meshes if cfg.mode == "C" else baseline_meshes
         return make(ts.objects, [ts.table] * len(ts.objects), cfg)

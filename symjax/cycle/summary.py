@@ -67,7 +67,7 @@ def write_report(results: list[dict], out_dir: Any, command: str = "") -> dict[s
               " knocked off | s per pick (median) |",
               "|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for robot, modes in sorted(table.items()):
-        for mode in ("C", "P", "T"):
+        for mode in ("C", "K", "P", "T"):
             if mode in modes:
                 r = modes[mode]
                 lines.append(
@@ -76,7 +76,8 @@ def write_report(results: list[dict], out_dir: Any, command: str = "") -> dict[s
                     f" {r['picks_delivered']} | {r['picks_with_collision']} | {r['knocked_off']}"
                     f" | {r['pick_seconds_median']} |"
                 )
-    lines += ["", "C: completed by symmetry (Mir7); P: the observed points alone (Delaunay);"
+    lines += ["", "C: completed by symmetry (Mir7); K: the completion's plausible shapes, grasps"
+              " ranked across them; P: the observed points alone (Delaunay);"
               " T: the true meshes (oracle).", "", "## Stage times of a pick (median, s)", "",
               "| robot | mode | " + " | ".join(STAGES) + " |",
               "|---|---|" + "---|" * len(STAGES)]  # fmt: skip
