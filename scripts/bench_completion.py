@@ -36,6 +36,7 @@ from symjax.completion import (
     CONFIDENCE_MODEL,
     CompletionConfig,
     choose_completion,
+    confidence_features,
     roc_auc,
 )
 from symjax.datasets import benchmark, symmetry_truth
@@ -81,6 +82,13 @@ def _logistic_fit(x: np.ndarray, y: np.ndarray, l2: float = 0.5) -> np.ndarray:
     return minimize(nll, np.zeros(z.shape[1]), method="BFGS").x
 
 
+def _refit_auc(feats: np.ndarray, bad: np.ndarray) -> float:
+    """In-sample AUC of a model of these features fitted on all the views (the shipped model's
+    refit; with the first two columns: the supports-only model it replaced)."""
+    w = _logistic_fit(feats, bad.astype(float), CONFIDENCE_MODEL["l2"])
+    return roc_auc(-(np.c_[np.ones(len(feats)), feats] @ w), bad)
+
+
 def main(argv=None) -> int:
     args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_completion.py", __doc__)
     views = list(benchmark())
@@ -104,7 +112,8 @@ def main(argv=None) -> int:
         t_mirror.append(time.perf_counter() - t0)
         m7 = _mir7(v, mirror)
         rec = {"view": v.name, "object": v.object_name, "kind": c.kind, "mirror": m7}
-        rec.update(conf=c.confidence, support=c.support, rival=c.rival_support, vote=float(r.vote))
+        rec.update(conf=c.confidence, support=c.support, rival=c.rival_support, vote=float(r.vote),
+                   residual=float(c.revolution.residual))  # fmt: skip
         rec["chosen"] = m7 if c.kind == "mirror" else _mir7(v, c.oriented or c.mesh)
         if c.flagged:
             hull = choose_completion(r, v.observation, fallback).mesh
@@ -120,12 +129,12 @@ def main(argv=None) -> int:
 
     known = [r for r in recs if r["bad"] is not None]
     bad = np.array([r["bad"] for r in known])
-    feats = np.array([[math.log(r["support"] + 0.02), math.log(r["rival"] + 0.02)] for r in known])
+    feats = np.array([confidence_features(r["support"], r["rival"], r["residual"]) for r in known])
     objects = np.array([r["object"] for r in known])
     loo = np.zeros(len(known))
     for o in np.unique(objects):
         m = objects == o
-        w = _logistic_fit(feats[~m], bad[~m].astype(float))
+        w = _logistic_fit(feats[~m], bad[~m].astype(float), CONFIDENCE_MODEL["l2"])
         loo[m] = -(np.c_[np.ones(m.sum()), feats[m]] @ w)
     flagged = [r for r in recs if "hull" in r]
     rows.emit(
@@ -136,6 +145,8 @@ def main(argv=None) -> int:
             "auc": round(roc_auc([r["conf"] for r in known], bad), 3),
             "auc_leave_one_object_out": round(roc_auc(loo, bad), 3),
             "auc_support_alone": round(roc_auc([r["support"] for r in known], bad), 3),
+            "auc_supports_only_refit": round(_refit_auc(feats[:, :2], bad), 3),
+            "auc_refit_all_views": round(_refit_auc(feats, bad), 3),
             "auc_vote_alone": round(roc_auc([-r["vote"] for r in known], bad), 3),
             "n_flagged": len(flagged),
             "bad_rate_flagged": round(float(np.mean([r["bad"] for r in known if "hull" in r])), 3),

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from symjax import TablePlane
 from symjax.completion import (
+    CONFIDENCE_MODEL,
     CompletionConfig,
     SupportIndex,
     choose_completion,
@@ -96,16 +97,30 @@ def test_rival_support_is_the_best_of_the_rival_planes_by_brute_force():
 
 
 @settings(max_examples=50, deadline=None)
-@given(st.floats(0, 1), st.floats(0, 1), st.floats(0.01, 0.5))
-def test_confidence_rises_with_support_and_falls_with_the_rivals(s, r, d):
-    c = plane_confidence(s, r)
+@given(st.floats(0, 1), st.floats(0, 1), st.floats(0.01, 0.5), st.floats(0.01, 3.0))
+def test_confidence_rises_with_support_and_falls_with_the_rivals(s, r, d, res):
+    c = plane_confidence(s, r, res)
     assert 0.0 < c < 1.0
-    assert plane_confidence(min(s + d, 1.0), r) >= c
-    assert plane_confidence(s, min(r + d, 1.0)) <= c
+    assert plane_confidence(min(s + d, 1.0), r, res) >= c
+    assert plane_confidence(s, min(r + d, 1.0), res) <= c
+
+
+def test_confidence_dips_for_surfaces_nearly_of_revolution():
+    # Supports of a typical view; the residual of a cup (0.13), a mug with its handle hidden or a
+    # pitcher (0.2-0.3), a box (0.6-0.8); no axis counts as the clip's end.
+    c = {r: plane_confidence(0.3, 0.3, r) for r in (0.13, 0.25, 0.7, 2.0)}
+    assert c[0.25] < c[0.13] and c[0.25] < c[0.7] <= c[2.0]
+    assert plane_confidence(0.3, 0.3, math.inf) == c[2.0] == plane_confidence(0.3, 0.3, math.nan)
+    # The model as written in its docstring, by hand.
+    m = CONFIDENCE_MODEL
+    a = math.log(0.25)
+    z = (m["bias"] + m["w_support"] * math.log(0.32) + m["w_rival"] * math.log(0.32)
+         + m["w_axis"] * a + m["w_axis2"] * a * a)  # fmt: skip
+    assert c[0.25] == pytest.approx(1 - 1 / (1 + math.exp(-z)))
 
 
 def test_confidence_of_nan_is_nan():
-    assert math.isnan(plane_confidence(math.nan, 0.3))
+    assert math.isnan(plane_confidence(math.nan, 0.3, 0.2))
 
 
 def test_roc_auc_against_pairs_counted_by_hand():

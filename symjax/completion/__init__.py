@@ -8,7 +8,12 @@ uncertainty).
 """
 
 from symjax.completion.choice import Completion, choose_completion, footprint_hull
-from symjax.completion.confidence import CONFIDENCE_MODEL, plane_confidence, roc_auc
+from symjax.completion.confidence import (
+    CONFIDENCE_MODEL,
+    confidence_features,
+    plane_confidence,
+    roc_auc,
+)
 from symjax.completion.config import CompletionConfig
 from symjax.completion.revolution import RevolutionFit, fit_revolution, revolve
 from symjax.completion.shapes import ShapeSet, distinct_plane, plausible_shapes, shape_weight
@@ -22,6 +27,7 @@ __all__ = [
     "ShapeSet",
     "SupportIndex",
     "choose_completion",
+    "confidence_features",
     "distinct_plane",
     "fit_revolution",
     "footprint_hull",

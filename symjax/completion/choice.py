@@ -114,13 +114,14 @@ def choose_completion(
     normal, offset = np.asarray(result.normal, np.float64), float(result.offset)
     support = index.support(normal, offset, cfg.support_eps)
     rival = index.rival_support(normal, offset, np.asarray(table.normal), cfg)
-    conf = plane_confidence(support, rival)
     fit = fit_revolution(observed, np.asarray(table.normal, np.float64), cfg)
+    conf = plane_confidence(support, rival, fit.residual)
     facts = dict(confidence=conf, support=support, rival_support=rival, revolution=fit)
     facts["flagged"] = bool(conf < cfg.flag_below)
     axis = np.isfinite(fit.residual)
     why_rot = f"axis residual {fit.residual:.3f} <= {cfg.revolution_residual}"
-    why_conf = f"plane support {support:.2f} (best rival {rival:.2f}), confidence {conf:.2f}"
+    why_conf = (f"plane support {support:.2f} (best rival {rival:.2f}, axis residual"
+                f" {fit.residual:.2f}), confidence {conf:.2f}")  # fmt: skip
     if cfg.mode == "revolution" and axis or cfg.mode == "auto" and fit.rotational:
         reason = f"visible surface is rotational ({why_rot})" if fit.rotational else (
             f"revolution asked for (axis residual {fit.residual:.3f})"
