@@ -340,3 +340,25 @@ def test_nan_rows_are_dropped_not_propagated():
     assert obs.n_valid == 200 - len(pts[::7])
     r = search(obs, dataclasses.replace(SymmetryConfig(), n_refine=0))
     assert np.all(np.isfinite(np.asarray(r.normal)))
+
+
+def test_mirror_across_the_found_plane_is_the_search_own_completion(views, batch_result):
+    """mirror_across reproduces the search's mirrored points, kept mask and plausibility for
+    its own plane, and mirrors across another plane as reflect() does (kept points behind the
+    visible surface only)."""
+    from symjax.symmetry import mirror_across, reflect
+
+    obs, r = views[3][2], batch_result[3]
+    same = mirror_across(r, obs, np.asarray(r.normal), float(r.offset))
+    for f in ("mirrored", "mirrored_keep", "plausibility"):
+        np.testing.assert_allclose(np.asarray(getattr(same, f), float),
+                                   np.asarray(getattr(r, f), float), atol=1e-6)  # fmt: skip
+    n = np.asarray(r.normal, float)
+    turned = np.array([n[0] * 0.8 - n[1] * 0.6, n[0] * 0.6 + n[1] * 0.8, 0.0])  # 37 deg
+    other = mirror_across(r, obs, 2.0 * turned, float(r.offset))  # normalised inside
+    np.testing.assert_allclose(np.linalg.norm(np.asarray(other.normal)), 1.0, atol=1e-6)
+    want = np.asarray(reflect(np.asarray(r.points), turned, float(r.offset)))
+    np.testing.assert_allclose(np.asarray(other.mirrored), want, atol=1e-5)
+    keep = np.asarray(other.mirrored_keep, bool)
+    assert keep.sum() < np.asarray(r.valid, bool).sum() and not keep[~np.asarray(r.valid)].any()
+    np.testing.assert_array_equal(np.asarray(other.votes), np.asarray(r.votes))  # kept
