@@ -114,7 +114,7 @@ def _members(result: Any, obs: Any, cfg: Any) -> tuple[list, list]:
     cc = config_or_default(cfg.completion, CompletionConfig)
     main = choose_completion(result, obs, cc, cfg.normals)
     w = shape_weight(main, cc) if cc.shapes > 1 else 1.0
-    shapes = [[main.kind, f"{main.reason}; weight {w:.2f}", w, main.mesh]]
+    shapes = [[main.kind, main.reason, w, main.mesh]]
     oriented = [] if main.mesh is not None else [(0, main.oriented)]
     rest: list = []
     if cc.shapes >= 2:
@@ -146,6 +146,7 @@ def _members(result: Any, obs: Any, cfg: Any) -> tuple[list, list]:
             oriented.append((len(shapes) - 1, x))
     if not rest:
         shapes[0][2] = 1.0
+    shapes[0][1] += f"; weight {shapes[0][2]:.2f}"
     return shapes, oriented
 
 
