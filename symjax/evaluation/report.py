@@ -277,7 +277,8 @@ def _completion_lines(c: dict[str, Any]) -> list[str]:
         " of revolution about the table normal; mirror: the plane of Eq. 4; fallback: the hull of"
         " the visible points and their table footprint.",
         "",
-        f"Plane confidence (from the plane's support, the paper's case i): ROC AUC"
+        "Plane confidence (the plane's support, the paper's case i, its best rival's and the"
+        f" axis residual of the visible surface): ROC AUC"
         f" {_fmt(c['confidence_auc'], 3)} at telling the {c['n_bad']} of {c['n_known']} planes"
         f" off by more than 10 deg or 10 mm from the rest (the vote of Eq. 3 alone:"
         f" {_fmt(c['vote_auc'], 3)}).",
