@@ -104,3 +104,15 @@ def test_poisson_batch_views_are_independent(composition):
             assert np.array_equal(out[k].faces, P_ALONE[i].faces)
         else:
             assert isinstance(out[k], SymjaxError), (composition, k, out[k])
+
+
+def test_search_or_errors_names_each_failed_view_and_keeps_the_others():
+    from symjax.symmetry import search_or_errors
+
+    res, errors = search_or_errors([GOOD[0], BAD[1], GOOD[2]], PAPER)
+    assert errors[0] is None and errors[2] is None and isinstance(errors[1], SymjaxError)
+    assert _same(res[0], ALONE[0]) and _same(res[2], ALONE[2])
+    given, again = search_or_errors([GOOD[0]], PAPER, search=res)  # the caller's search
+    assert given is res and again == [None]
+    none, all_bad = search_or_errors([GOOD[0]], {"not": "a config"})  # the batch fails
+    assert none is None and isinstance(all_bad[0], SymjaxError)

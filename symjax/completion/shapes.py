@@ -17,7 +17,7 @@ import numpy as np
 
 from symjax.completion.choice import Completion, choose_completion, footprint_hull
 from symjax.completion.config import CompletionConfig
-from symjax.errors import DegenerateGeometryError, SymjaxError, config_or_default
+from symjax.errors import SymjaxError, config_or_default
 
 __all__ = ["ShapeSet", "distinct_plane", "plausible_shapes", "shape_weight"]
 
@@ -167,20 +167,13 @@ def plausible_shapes(observations: list, cfg: Any, search: Any = None) -> list:
         completion from being built (an alternative that fails is left out).
     """
     from symjax.surface import poisson_reconstruct_batch
-    from symjax.symmetry import search_batch
+    from symjax.symmetry import search_or_errors
 
-    n = len(observations)
-    out: list = [None] * n
-    try:
-        res = search if search is not None else search_batch(list(observations), cfg.symmetry,
-                                                             cfg.execution)  # fmt: skip
-    except SymjaxError as e:
-        return [e] * n
+    res, out = search_or_errors(observations, cfg.symmetry, cfg.execution, search)
     members: dict[int, list] = {}
     jobs: list = []  # (view, shape index, OrientedPoints)
     for i, obs in enumerate(observations):
-        if not bool(res.ok[i]):
-            out[i] = res.errors[i] if res.errors else DegenerateGeometryError("no plane")
+        if out[i] is not None:
             continue
         try:
             members[i], oriented = _members(res[i], obs, cfg)

@@ -43,19 +43,12 @@ def completed_meshes(observations: list, tables: list, cfg: Any, search: Any = N
     """
     from symjax.completion import choose_completion
     from symjax.surface import poisson_reconstruct_batch
-    from symjax.symmetry import search_batch
+    from symjax.symmetry import search_or_errors
 
-    k = len(observations)
-    out: list = [None] * k
-    try:
-        res = search if search is not None else search_batch(list(observations), cfg.symmetry,
-                                                             cfg.execution)  # fmt: skip
-    except SymjaxError as e:
-        return [e] * k
+    res, out = search_or_errors(observations, cfg.symmetry, cfg.execution, search)
     ops, good = [], []
     for i, obs in enumerate(observations):
-        if not bool(res.ok[i]):
-            out[i] = res.errors[i] if res.errors else DegenerateGeometryError("no plane")
+        if out[i] is not None:
             continue
         try:
             c = choose_completion(res[i], obs, cfg.completion, cfg.normals)

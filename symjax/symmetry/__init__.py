@@ -8,7 +8,13 @@ Modules: ``config`` (search parameters), ``view`` (a view packed for the kernels
 from symjax.symmetry.config import SymmetryConfig
 from symjax.symmetry.result import SymmetryResult
 from symjax.symmetry.scoring import reflect, score_planes
-from symjax.symmetry.solver import complete, mirror_across, search, search_batch
+from symjax.symmetry.solver import (
+    complete,
+    mirror_across,
+    search,
+    search_batch,
+    search_or_errors,
+)
 from symjax.symmetry.view import ViewArrays, prepare_view
 
 __all__ = [
@@ -22,4 +28,5 @@ __all__ = [
     "score_planes",
     "search",
     "search_batch",
+    "search_or_errors",
 ]

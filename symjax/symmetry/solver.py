@@ -31,7 +31,7 @@ from symjax.symmetry.hypotheses import mirror_view, search_view
 from symjax.symmetry.result import SymmetryResult
 from symjax.symmetry.view import ViewArrays, aligned_stack, prepare_view
 
-__all__ = ["complete", "mirror_across", "search", "search_batch"]
+__all__ = ["complete", "mirror_across", "search", "search_batch", "search_or_errors"]
 
 
 def _search_one(view: ViewArrays, cfg: SymmetryConfig, chunk_planes: int) -> SymmetryResult:
@@ -324,3 +324,31 @@ def mirror_across(
         result, normal=n32, offset=np.float32(offset), mirrored=np.asarray(mirrored),
         mirrored_keep=np.asarray(keep), plausibility=np.asarray(plaus),
     )  # fmt: skip
+
+
+def search_or_errors(
+    observations: Sequence[Observation],
+    config: SymmetryConfig | None = None,
+    execution: ExecutionConfig | None = None,
+    search: SymmetryResult | None = None,
+) -> tuple[SymmetryResult | None, list]:
+    """The batched search of the observations (or ``search``, when the caller ran it), and per
+    view None or the :class:`SymjaxError` that kept it from a plane: the entry of the stages
+    that go on with the other views when one fails.
+
+    Returns:
+        ``(result or None, errors)``: None and the batch's error for every view when the batch
+        as a whole failed.
+    """
+    n = len(observations)
+    try:
+        res = search if search is not None else search_batch(list(observations), config, execution)
+    except SymjaxError as e:
+        return None, [e] * n
+    errors = [
+        None if bool(res.ok[i])
+        else res.errors[i] if res.errors and res.errors[i] is not None
+        else DegenerateGeometryError("the search found no plane for this view")
+        for i in range(n)
+    ]  # fmt: skip
+    return res, errors
