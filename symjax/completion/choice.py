@@ -35,6 +35,7 @@ class Completion:
         revolution: The axis fit of the visible surface.
         oriented: Oriented points to mesh (mirror, revolution); None for the fallback.
         mesh: The fallback's watertight ``trimesh.Trimesh``; None otherwise.
+        visible: (N, 3) the observed points the choice used (outliers removed), metres.
     """
 
     kind: Kind
@@ -46,6 +47,7 @@ class Completion:
     revolution: RevolutionFit
     oriented: OrientedPoints | None = None
     mesh: Any = None
+    visible: Any = None
 
 
 def footprint_hull(points: np.ndarray, table: Any):
@@ -116,7 +118,8 @@ def choose_completion(
     rival = index.rival_support(normal, offset, np.asarray(table.normal), cfg)
     fit = fit_revolution(observed, np.asarray(table.normal, np.float64), cfg)
     conf = plane_confidence(support, rival, fit.residual)
-    facts = dict(confidence=conf, support=support, rival_support=rival, revolution=fit)
+    facts = dict(confidence=conf, support=support, rival_support=rival, revolution=fit,
+                 visible=observed.points)  # fmt: skip
     facts["flagged"] = bool(conf < cfg.flag_below)
     axis = np.isfinite(fit.residual)
     why_rot = f"axis residual {fit.residual:.3f} <= {cfg.revolution_residual}"

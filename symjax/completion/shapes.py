@@ -108,7 +108,7 @@ def distinct_plane(
 def _members(result: Any, obs: Any, cfg: Any) -> tuple[list, list]:
     """``(shapes, oriented)``: per shape ``[kind, reason, weight, mesh or None]`` and the
     oriented clouds still to mesh, ``(shape index, OrientedPoints)``."""
-    from symjax.surface.normals import oriented_completion, oriented_observation
+    from symjax.surface.normals import oriented_completion
     from symjax.symmetry import mirror_across
 
     cc = config_or_default(cfg.completion, CompletionConfig)
@@ -130,11 +130,8 @@ def _members(result: Any, obs: Any, cfg: Any) -> tuple[list, list]:
                 pass
     if len(rest) < cc.shapes - 1 and main.kind != "fallback":
         try:
-            seen = oriented_observation(
-                np.asarray(result.points)[np.asarray(result.valid, bool)], obs.camera, cfg.normals
-            )
             rest.append(["fallback", "footprint hull of the visible points",
-                         footprint_hull(seen.points, obs.table)])  # fmt: skip
+                         footprint_hull(main.visible, obs.table)])  # fmt: skip
         except SymjaxError:
             pass
     rest = rest[: cc.shapes - 1]

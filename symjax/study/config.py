@@ -65,10 +65,6 @@ class StudyConfig(ShapeToGraspStages):
             raise ConfigError(
                 f"StudyConfig.top and batch must be >= 1, got {self.top}, {self.batch}"
             )
-        if self.robust not in ("mean", "quantile"):
-            raise ConfigError(
-                f"StudyConfig.robust must be 'mean' or 'quantile', got {self.robust!r}"
-            )
         if not self.hands:
             raise ConfigError("StudyConfig.hands is empty; expected (hand, generator) pairs")
         for _, g in self.hands:
