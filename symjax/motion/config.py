@@ -32,6 +32,8 @@ class MotionConfig:
             table, an obstacle or another robot link (OMPL's validity check), metres.
         carried_margin: The same for a held object against the table and the other objects:
             larger, since the object may slip or swing in the hand while it is carried, metres.
+        obstacle_margin: The same for the robot against an object other than the target (at
+            least ``check_margin``): the shapes planned on are estimates, metres.
         approach_margin: The margin and the clearance of the last straight line to the grasp
             and of the fingers' closing sweep, metres (at most ``check_margin``): a low object
             is grasped with the fingertips just above the table.
@@ -69,6 +71,7 @@ class MotionConfig:
     clearance: float = 0.005
     detection_distance: float = 0.05
     check_margin: float = 0.005
+    obstacle_margin: float = 0.005
     approach_margin: float = 0.005
     carried_margin: float = 0.02
     cartesian_step: float = 0.01
@@ -106,6 +109,11 @@ class MotionConfig:
         for name in ("velocity_scale", "acceleration_scale", "carry_scale"):
             if not 0 < getattr(self, name) <= 1:
                 raise ConfigError(f"{name} = {getattr(self, name)!r}; expected in (0, 1]")
+        if self.obstacle_margin < self.check_margin:
+            raise ConfigError(
+                f"obstacle_margin = {self.obstacle_margin} must be >= check_margin ="
+                f" {self.check_margin} (metres)"
+            )
         if not 0 <= self.approach_margin <= self.check_margin:
             raise ConfigError(
                 f"approach_margin = {self.approach_margin} must be in [0, check_margin ="

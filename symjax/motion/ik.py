@@ -59,7 +59,7 @@ class ArmIK:
         self._rng = np.random.default_rng(config.seed)
 
     def _solver(self, sm: SceneModel, avoid: tuple[str, ...], table: float | None = None):
-        key = (id(sm), avoid, table)
+        key = (id(sm), avoid, table, self.scene.target)
         if key in self._solvers:
             return self._solvers[key]
         import mink
@@ -73,8 +73,15 @@ class ArmIK:
         posture.set_target(self.scene.full_q(self.scene.robot.home))
         freeze = mink.DofFreezingTask(m, dof_indices=list(range(n, m.nv)))
         env = [int(g) for g in sm.fixed_geoms if m.geom(int(g)).name != "floor"]
+        # The objects other than the target keep the wider obstacle margin (own limit below).
+        wide = cfg.obstacle_margin > cfg.clearance
+        others: list[int] = []
         for name, gs in sm.object_geoms.items():
-            if name not in avoid:
+            if name in avoid:
+                continue
+            if wide and name != self.scene.target:
+                others += [int(g) for g in gs]
+            else:
                 env += [int(g) for g in gs]
         robot = [int(g) for g in np.concatenate([sm.arm_geoms, sm.hand_geoms])]
         carried = [int(g) for g in sm.carried_geoms]
@@ -82,7 +89,7 @@ class ArmIK:
         if carried:
             # Lifting off the table: the held object starts on it (``avoid`` has "table").
             table = int(sm.fixed_geoms[0])
-            env_c = [g for g in env if not ("table" in avoid and g == table)]
+            env_c = [g for g in env + others if not ("table" in avoid and g == table)]
             if env_c:
                 pairs.append((carried, env_c))
         # Self-collision: the hand (and what it holds) against the arm links the MJCF does not
@@ -111,6 +118,12 @@ class ArmIK:
             limits.append(mink.CollisionAvoidanceLimit(
                 m, pairs, minimum_distance_from_collisions=cfg.clearance,
                 collision_detection_distance=cfg.detection_distance,
+            ))  # fmt: skip
+        if others:
+            limits.append(mink.CollisionAvoidanceLimit(
+                m, [(robot, others)], minimum_distance_from_collisions=cfg.obstacle_margin,
+                collision_detection_distance=max(cfg.detection_distance,
+                                                 2 * cfg.obstacle_margin),
             ))  # fmt: skip
         out = (conf, frame, posture, freeze, limits)
         self._solvers[key] = out

@@ -303,6 +303,7 @@ def plan_arm_batch(
                 raise InvalidInputError(f"the {what} pose of candidate {g.index} has NaN or inf")
     scene.margin = config.check_margin
     scene.carried_margin = config.carried_margin
+    scene.obstacle_margin = config.obstacle_margin
     ik = ArmIK(scene, config)
     plans = []
     for g in grasps:

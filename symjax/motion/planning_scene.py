@@ -50,6 +50,9 @@ class PlanningScene:
         margin: A robot geom closer than this to anything counts as a collision, metres.
         carried_margin: The same for the attached object: larger, because where it sits in the
             hand is only known to the slip of the grasp, metres.
+        obstacle_margin: The same for the robot against an object other than the target (at
+            least ``margin``): larger when the objects are planned on estimated shapes (a
+            completion, observed points), which can be off by millimetres, metres.
 
     Raises:
         UnknownNameError: An unknown robot.
@@ -62,6 +65,7 @@ class PlanningScene:
         target: str | None = None,
         margin: float = 0.005,
         carried_margin: float = 0.02,
+        obstacle_margin: float = 0.005,
     ):
         from symjax import robots
         from symjax.hands import load as load_hand
@@ -70,6 +74,7 @@ class PlanningScene:
         self.hand = load_hand(self.robot.hand)
         self._margin = float(margin)
         self._carried_margin = float(carried_margin)
+        self._obstacle_margin = float(obstacle_margin)
         #: When set, the margin of robot-table contacts instead of :attr:`margin`, metres (the
         #: final approach to a grasp keeps the fingertips just above the table).
         self.table_margin: float | None = None
@@ -103,6 +108,17 @@ class PlanningScene:
     def carried_margin(self, value: float) -> None:
         if float(value) != self._carried_margin:
             self._carried_margin = float(value)
+            self._version += 1
+
+    @property
+    def obstacle_margin(self) -> float:
+        """Contact distance that counts as a collision with a non-target object, metres."""
+        return self._obstacle_margin
+
+    @obstacle_margin.setter
+    def obstacle_margin(self, value: float) -> None:
+        if float(value) != self._obstacle_margin:
+            self._obstacle_margin = float(value)
             self._version += 1
 
     # --- objects ------------------------------------------------------------------------------
@@ -227,6 +243,8 @@ class PlanningScene:
                 continue
             body = spec.worldbody.add_body(name=f"obj/{name}", mocap=True)
             add_hulls(spec, body, f"obj/{name}", obj.hulls, rgba=[0.3, 0.6, 0.9, 1])
+            for g in body.geoms:
+                g.margin = max(self.margin, self.obstacle_margin)
         if attached is not None:
             hb = spec.body(prefix + self.hand.base_body)
             body = hb.add_body(name=CARRIED)
@@ -331,6 +349,10 @@ class PlanningScene:
             limit = np.where(hand & ~on_table, wide, limit)
         if self.table_margin is not None:
             limit = np.where(on_table & ~carried, self.table_margin, limit)
+        if self._obstacle_margin > self._margin:
+            others = [g for n, gs in sm.object_geoms.items() if n != self._target for g in gs]
+            near = np.isin(g1, others) | np.isin(g2, others)
+            limit = np.where(near, np.maximum(limit, self._obstacle_margin), limit)
         bad = classify(sm, g1, g2, allow) & (dist < limit)
         return [(m.geom(a).name, m.geom(b).name, float(x))
                 for a, b, x, k in zip(g1, g2, dist, bad, strict=True) if k]  # fmt: skip
