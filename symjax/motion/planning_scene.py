@@ -65,7 +65,7 @@ class PlanningScene:
         target: str | None = None,
         margin: float = 0.005,
         carried_margin: float = 0.02,
-        obstacle_margin: float = 0.005,
+        obstacle_margin: float = 0.01,
     ):
         from symjax import robots
         from symjax.hands import load as load_hand

@@ -18,8 +18,6 @@ from symjax.motion.planning_scene import PlanningScene
 
 __all__ = ["TransitResult", "levers", "plan_transit", "segment_valid"]
 
-_SEEDED = False
-
 
 @dataclasses.dataclass(frozen=True)
 class TransitResult:
@@ -74,16 +72,17 @@ def segment_valid(scene: PlanningScene, a: np.ndarray, b: np.ndarray, step: floa
 
 
 def _ompl():
-    global _SEEDED
     from ompl import base as ob
     from ompl import geometric as og
     from ompl import util as ou
 
-    if not _SEEDED:
-        # Once per process, before any planner exists: the runs of a process are repeatable.
-        ou.setLogLevel(ou.LogLevel.LOG_ERROR)
-        ou.RNG.setSeed(1)
-        _SEEDED = True
+    # Every query starts from the same seed, so a plan depends on its own inputs only: a scene
+    # rerun alone repeats what it did in a batch. OMPL warns that a reseed after the first
+    # sample is not deterministic; it is (a fresh process gives the same paths), so the warning
+    # is silenced for the call.
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    ou.RNG.setSeed(1)
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     return ob, og
 
 
