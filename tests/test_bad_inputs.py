@@ -491,6 +491,7 @@ CASES = [
     ("grasp-obstacles-nan", lambda d: grasp.build_scene(_hulls(), SDH, obstacles=[(np.full((4, 3), np.nan), np.zeros((4, 3), int))]), InvalidInputError, ["obstacle", "finite vertices"]),
     ("grasp-obstacles-type", lambda d: grasp.plan(BOX, SDH, "uji", obstacles="box"), InvalidInputError, ["obstacles", "str"]),
     ("motion-config-approach-margin", lambda d: motion.MotionConfig(approach_margin=0.01), ConfigError, ["approach_margin", "check_margin"]),
+    ("motion-config-obstacle-margin", lambda d: motion.MotionConfig(obstacle_margin=0.002), ConfigError, ["obstacle_margin", "check_margin"]),
     ("cli-clear-table-objects", lambda d: _cli("clear-table", "--min-objects", "7", "--out-dir", str(d / "o")), _CliError, ["exit 2", "min objects", "(7, 5)"]),
     ("cli-clear-table-robot", lambda d: _cli("clear-table", "--robots", "pr2", "--out-dir", str(d / "o")), _CliError, ["exit 2", "pr2"]),
     ("cli-eval-completion-mode", lambda d: _cli("eval", "--completion.mode", "mirrors", "--out-dir", str(d / "o")), _CliError, ["exit 2", "mirrors"]),

@@ -261,3 +261,17 @@ def test_closing_fingers_are_checked_against_the_clutter():
     scene.add_object("can", box((0.18, 0.08, 0.06), p + (0.0, 0.0, -0.04)))
     scene.target = "can"
     assert closing_contacts(scene, q, scene.hand.preshape_index("open")) == []
+
+
+def test_obstacle_margin_applies_to_the_other_objects_only():
+    scene = motion.PlanningScene("uji", {"a": box((0.06, 0.06, 0.02), (0.0, 0.0, 0.0))})
+    q = scene.full_q(scene.robot.home)
+    p, _ = scene.tcp_pose(q)
+    # A box 0.2 m below the TCP: farther than 5 mm from the robot, nearer than 0.3 m.
+    scene.move_object("a", np.r_[p[:2], p[2] - 0.2, 1.0, 0.0, 0.0, 0.0])
+    assert not scene.collisions(q)
+    scene.obstacle_margin = 0.3
+    near = [x for a, b, x in scene.collisions(q) if "obj/a" in a + b]
+    assert near and all(0.005 < x < 0.3 for x in near)
+    scene.target = "a"  # the target keeps the plain margin
+    assert not scene.collisions(q)

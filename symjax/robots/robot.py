@@ -53,7 +53,7 @@ class _RobotInfo:
 
 
 _INFO = {
-    # home: the hand pointing down, flange 0.37 m above the table centre line (solved offline).
+    # home: the hand pointing down, flange 0.57 m above the table centre line (solved offline).
     "kth": _RobotInfo(
         "sdh",
         ("a1", "a2", "a3", "a4", "a5", "a6"),
