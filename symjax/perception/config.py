@@ -76,6 +76,10 @@ class SegmentationConfig:
         max_object_extent: A cluster wider than this (m) on the table is flagged as possibly
             several touching objects.
         mask_fill: Fill of each object's mask, see :meth:`symjax.Observation.from_points`.
+        object_holes: Pixels enclosed by one object's mask in the image (none of another
+            object) join that object, with their points: the inside of a bowl or a cup seen from
+            above lies within millimetres of the table and is not taken for an object by its
+            height (a ring lying on the table would take the table inside it too).
         claim_dropouts_px: Pixels without depth within this many pixels of an object whose
             viewing ray passes through the object's column (footprint hull x height) join its
             mask, not its points (:mod:`symjax.perception.dropouts`); 0 = off.
@@ -119,6 +123,7 @@ class SegmentationConfig:
     max_object_extent: float = 0.4
     mask_fill: str = "close"
     claim_dropouts_px: int = 0
+    object_holes: bool = False
     seed: int = 0
 
     def __post_init__(self) -> None:

@@ -128,6 +128,17 @@ def _fill_holes(depth: np.ndarray, valid: np.ndarray, passes: int) -> np.ndarray
     return np.where(filled < big, filled, np.float32(0.0))
 
 
+def _enclosed(mask: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """The ``free`` pixels that ``mask`` encloses (holes of the mask), (H, W) bool."""
+    from scipy.ndimage import binary_fill_holes
+
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    sl = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    out = np.zeros_like(mask)
+    out[sl] = binary_fill_holes(mask[sl]) & ~mask[sl] & free[sl]
+    return out
+
+
 def _segment_depth(
     depth: np.ndarray, camera: Camera, cfg: SegmentationConfig, rgb=None
 ) -> TableScene:
@@ -207,15 +218,15 @@ def _segment_depth(
     for k, ids in found:
         m = np.zeros(hw, bool)
         m.reshape(-1)[ids] = True
+        mask = fill_mask(m | (claimed == k), cfg.mask_fill)
+        if cfg.object_holes:
+            hole = _enclosed(mask, valid & (labels == -1))
+            if hole.any():
+                labels[hole], m = k, m | hole
+                points[k] = np.concatenate([points[k], world(np.flatnonzero(hole))])
         keep[k] = len(objects)
         objects.append(
-            Observation.create(
-                points[k],
-                camera,
-                table,
-                fill_mask(m | (claimed == k), cfg.mask_fill),
-                np.where(m, depth, 0.0),
-            )
+            Observation.create(points[k], camera, table, mask | m, np.where(m, depth, 0.0))
         )
     labels = np.where(labels >= 0, keep[np.maximum(labels, 0)], -1).astype(np.int32)
     infos, notes = describe_objects(objects, labels, depth, table, cfg)
