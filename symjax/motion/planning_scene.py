@@ -40,6 +40,22 @@ class _Object:
     quat: np.ndarray
 
 
+class _Margin:
+    """A contact distance of the scene, metres: setting another value recompiles its models
+    (the geoms' margins are model fields)."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.attr = "_" + name
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Any:
+        return self if obj is None else getattr(obj, self.attr)
+
+    def __set__(self, obj: Any, value: float) -> None:
+        if float(value) != getattr(obj, self.attr):
+            setattr(obj, self.attr, float(value))
+            obj._version += 1
+
+
 class PlanningScene:
     """A robot, the table and the objects on it, for IK, collision checks and motion planning.
 
@@ -57,6 +73,13 @@ class PlanningScene:
     Raises:
         UnknownNameError: An unknown robot.
     """
+
+    #: Contact distance that counts as a collision, metres.
+    margin = _Margin()
+    #: The same for the attached object (and the hand carrying it, against the other objects).
+    carried_margin = _Margin()
+    #: The same against an object other than the target.
+    obstacle_margin = _Margin()
 
     def __init__(
         self,
@@ -87,39 +110,6 @@ class PlanningScene:
             self.add_object(name, hulls)
         self._target: str | None = None
         self.target = target
-
-    @property
-    def margin(self) -> float:
-        """Contact distance that counts as a collision, metres."""
-        return self._margin
-
-    @margin.setter
-    def margin(self, value: float) -> None:
-        if float(value) != self._margin:
-            self._margin = float(value)
-            self._version += 1
-
-    @property
-    def carried_margin(self) -> float:
-        """Contact distance that counts as a collision for the attached object, metres."""
-        return self._carried_margin
-
-    @carried_margin.setter
-    def carried_margin(self, value: float) -> None:
-        if float(value) != self._carried_margin:
-            self._carried_margin = float(value)
-            self._version += 1
-
-    @property
-    def obstacle_margin(self) -> float:
-        """Contact distance that counts as a collision with a non-target object, metres."""
-        return self._obstacle_margin
-
-    @obstacle_margin.setter
-    def obstacle_margin(self, value: float) -> None:
-        if float(value) != self._obstacle_margin:
-            self._obstacle_margin = float(value)
-            self._version += 1
 
     # --- objects ------------------------------------------------------------------------------
     @property
