@@ -161,3 +161,15 @@ def test_a_crash_in_the_worker_is_a_typed_error_and_the_next_call_works():
     with pytest.raises(DegenerateGeometryError, match="crashed"):
         run_isolated(os._exit, 3)  # the worker dies as a segfaulting coacd would
     assert run_isolated(abs, -2) == 2  # a new worker
+
+
+def test_a_worker_that_runs_too_long_is_stopped_and_the_next_call_works():
+    import time
+
+    from symjax.decompose.worker import run_isolated
+
+    t0 = time.perf_counter()
+    with pytest.raises(DegenerateGeometryError, match="longer than 1 s"):
+        run_isolated(time.sleep, 60, timeout=1.0)  # as coacd spinning on a mesh
+    assert time.perf_counter() - t0 < 30
+    assert run_isolated(abs, -2) == 2  # a new worker
