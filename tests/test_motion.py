@@ -275,3 +275,24 @@ def test_obstacle_margin_applies_to_the_other_objects_only():
     assert near and all(0.005 < x < 0.3 for x in near)
     scene.target = "a"  # the target keeps the plain margin
     assert not scene.collisions(q)
+
+
+def test_start_check_keeps_the_plain_margin_for_other_objects():
+    # An object 7 mm from the hand at home is inside the 1 cm obstacle margin but does not stop
+    # the robot from starting there (a pick left the hand 9.4 mm from a neighbour's shape).
+    from symjax.motion.pick import _check_start
+
+    scene = motion.PlanningScene("uji", {"a": box((0.06, 0.06, 0.02), (0.0, 0.0, 0.0))})
+    q = scene.full_q(scene.robot.home)
+    p, _ = scene.tcp_pose(q)
+    scene.move_object("a", np.r_[p, 1.0, 0.0, 0.0, 0.0])
+    scene.margin = scene.obstacle_margin = 0.05
+    d = min(x for a, b, x in scene.collisions(q) if "obj/a" in a + b)  # the box's gap, below
+    scene.move_object("a", np.r_[p[:2], p[2] + d - 0.007, 1.0, 0.0, 0.0, 0.0])
+    scene.margin, scene.obstacle_margin = 0.005, 0.01
+    assert scene.collisions(q)  # inside the obstacle margin ...
+    _check_start(scene, None, "open")  # ... but the start is allowed
+    scene.obstacle_margin = 0.005
+    scene.margin = 0.008
+    with pytest.raises(motion.StartInCollisionError):
+        _check_start(scene, None, "open")

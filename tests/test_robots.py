@@ -105,3 +105,28 @@ def test_unknown_robot_and_bad_q():
         robots.load("pr2")
     with pytest.raises(ShapeError):
         robots.flange_pose(robots.load("kth"), np.zeros(7))
+
+
+_UJI_HOME_LOW = pytest.mark.xfail(
+    strict=True,
+    reason="known defect: the UJI home holds the hand about 0.2 m above the table at the near"
+    " edge of the workspace; a tall object there meets it (UJI scene 7 starts in collision)",
+)
+
+
+@pytest.mark.parametrize("name", ["kth", pytest.param("uji", marks=_UJI_HOME_LOW)])
+def test_home_clears_the_tallest_scene_object(name):
+    # The scene scans stand up to 0.27 m (the spray bottle); on the KTH arm's first, lower
+    # pedestal the open hand at home was 0.13 m above the table and 3 of 20 scenes started in
+    # collision.
+    import trimesh
+
+    from symjax.motion import PlanningScene
+
+    r = robots.load(name)
+    post = trimesh.creation.box((0.08, 0.08, 0.28))
+    for x, y in ((0.6, 0.0), (0.65, 0.0), (0.7, 0.05)):
+        post_w = post.copy()
+        post_w.apply_translation((x, y, r.table_height() + 0.14))
+        scene = PlanningScene(r, {"post": [(post_w.vertices, post_w.faces)]})
+        assert not scene.collisions(scene.full_q(r.home)), (x, y)
