@@ -98,6 +98,7 @@ class PlanningScene:
         self._margin = float(margin)
         self._carried_margin = float(carried_margin)
         self._obstacle_margin = float(obstacle_margin)
+        self._others: tuple[Any, str | None, np.ndarray] = (None, None, np.zeros(0, bool))
         #: When set, the margin of robot-table contacts instead of :attr:`margin`, metres (the
         #: final approach to a grasp keeps the fingertips just above the table).
         self.table_margin: float | None = None
@@ -340,12 +341,22 @@ class PlanningScene:
         if self.table_margin is not None:
             limit = np.where(on_table & ~carried, self.table_margin, limit)
         if self._obstacle_margin > self._margin:
-            others = [g for n, gs in sm.object_geoms.items() if n != self._target for g in gs]
-            near = np.isin(g1, others) | np.isin(g2, others)
-            limit = np.where(near, np.maximum(limit, self._obstacle_margin), limit)
+            other = self._other_objects(sm)
+            limit = np.where(other[g1] | other[g2], np.maximum(limit, self._obstacle_margin), limit)
         bad = classify(sm, g1, g2, allow) & (dist < limit)
         return [(m.geom(a).name, m.geom(b).name, float(x))
                 for a, b, x, k in zip(g1, g2, dist, bad, strict=True) if k]  # fmt: skip
+
+    def _other_objects(self, sm: SceneModel) -> np.ndarray:
+        """Per geom of ``sm``: an object other than the target, (ngeom,) bool (cached: the
+        collision checks of a plan ask for it thousands of times)."""
+        held, target, mask = self._others
+        if held is not sm or target != self._target:
+            mask = np.zeros(sm.model.ngeom, bool)
+            for name, gs in sm.object_geoms.items():
+                mask[gs] = name != self._target
+            self._others = (sm, self._target, mask)  # holding sm: its id is not reused
+        return mask
 
     def is_valid(self, q: ArrayLike, allow: tuple[tuple[str, str], ...] = ()) -> bool:
         """No collision at ``q`` (see :meth:`collisions`); a Python bool."""
