@@ -49,11 +49,7 @@ def _check_start(scene: PlanningScene, start: Any, preshape: int) -> np.ndarray:
         )
     # The robot is already there: only contacts within the plain margin stop it, not an object
     # within the wider obstacle margin (that margin is for the motions planned from here).
-    col = [
-        (a, b, d)
-        for a, b, d in scene.collisions(q0)
-        if d < scene.margin or not (a.startswith("obj/") or b.startswith("obj/"))
-    ]
+    col = scene.collisions(q0, obstacles=False)
     if col:
         pairs = ", ".join(f"{a}-{b} ({1e3 * d:.1f} mm)" for a, b, d in col[:4])
         raise StartInCollisionError(

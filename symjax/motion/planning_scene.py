@@ -302,7 +302,7 @@ class PlanningScene:
         return sm.data.site_xpos[sm.tcp_site].copy(), sm.data.site_xmat[sm.tcp_site].reshape(3, 3)
 
     def collisions(
-        self, q: ArrayLike, allow: tuple[tuple[str, str], ...] = ()
+        self, q: ArrayLike, allow: tuple[tuple[str, str], ...] = (), *, obstacles: bool = True
     ) -> list[tuple[str, str, float]]:
         """Robot contacts at configuration ``q``: ``(geom, geom, distance)``, closer than
         :attr:`margin`.
@@ -317,6 +317,8 @@ class PlanningScene:
                 ``"hand"``, ``"carried"`` or ``"robot"`` (arm, hand and carried object);
                 ``other`` an object name or ``"table"``. The approach allows
                 ``("hand", target)``; the lift allows ``("carried", "table")``.
+            obstacles: Keep :attr:`obstacle_margin` from the objects other than the target;
+                False: :attr:`margin` from every object (a start the robot is already at).
         """
         sm = self.scene_model()
         m, d = sm.model, sm.data
@@ -340,7 +342,7 @@ class PlanningScene:
             limit = np.where(hand & ~on_table, wide, limit)
         if self.table_margin is not None:
             limit = np.where(on_table & ~carried, self.table_margin, limit)
-        if self._obstacle_margin > self._margin:
+        if obstacles and self._obstacle_margin > self._margin:
             other = self._other_objects(sm)
             limit = np.where(other[g1] | other[g2], np.maximum(limit, self._obstacle_margin), limit)
         bad = classify(sm, g1, g2, allow) & (dist < limit)
