@@ -296,3 +296,33 @@ def test_start_check_keeps_the_plain_margin_for_other_objects():
     scene.margin = 0.008
     with pytest.raises(motion.StartInCollisionError):
         _check_start(scene, None, "open")
+
+
+def test_carrying_keeps_the_plain_clearance_from_the_table():
+    # The IK solver reused its ``table`` argument (a clearance in metres) for the table's geom
+    # index while an object was held: a 2 m clearance stopped a carrying hand 46 mm above the
+    # table (the detection distance) instead of 5 mm, e.g. when setting an object down.
+    scene = motion.PlanningScene("uji", {"held": box((0.04, 0.04, 0.04), (0.7, 0.0, 1.05))},
+                                 target="held")  # fmt: skip
+    cfg = motion.MotionConfig()
+    scene.margin = cfg.check_margin
+    ik = motion.ArmIK(scene, cfg)
+    table = scene.robot.table_height()
+    pre = ik.solve(np.array([0.7, 0.0, table + 0.3]), DOWN, scene.full_q(scene.robot.home))
+    assert pre.converged
+    scene.move_object("held", np.r_[scene.tcp_pose(pre.q)[0], 1.0, 0.0, 0.0, 0.0])
+    scene.attach("held", pre.q)
+    try:
+        path, err, _, col = ik.line(pre.q, np.array([0.7, 0.0, table + 0.05]), DOWN,
+                                    avoid=("table",), allow=(("carried", "table"),))  # fmt: skip
+        sm = scene.scene_model()
+        m, d = sm.model, sm.data
+        d.qpos[:] = path[-1]
+        mujoco.mj_kinematics(m, d)
+        robot = np.concatenate([sm.hand_geoms, sm.arm_geoms])
+        gap = min(mujoco.mj_geomDistance(m, d, int(g), int(sm.fixed_geoms[0]), 0.2, None)
+                  for g in robot)  # fmt: skip
+    finally:
+        scene.detach()
+    assert not col and err < cfg.cartesian_tolerance, (err, col)
+    assert cfg.clearance - 1e-4 <= gap < 0.02

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import mujoco
 import numpy as np
 import pytest
@@ -107,25 +109,21 @@ def test_unknown_robot_and_bad_q():
         robots.flange_pose(robots.load("kth"), np.zeros(7))
 
 
-_UJI_HOME_LOW = pytest.mark.xfail(
-    strict=True,
-    reason="known defect: the UJI home holds the hand about 0.2 m above the table at the near"
-    " edge of the workspace; a tall object there meets it (UJI scene 7 starts in collision)",
-)
-
-
-@pytest.mark.parametrize("name", ["kth", pytest.param("uji", marks=_UJI_HOME_LOW)])
+@pytest.mark.parametrize("name", ["kth", "uji"])
 def test_home_clears_the_tallest_scene_object(name):
     # The scene scans stand up to 0.27 m (the spray bottle); on the KTH arm's first, lower
     # pedestal the open hand at home was 0.13 m above the table and 3 of 20 scenes started in
-    # collision.
+    # collision; the UJI arm's first home held the TCP 0.245 m above the workspace (scene 7).
     import trimesh
 
     from symjax.motion import PlanningScene
 
     r = robots.load(name)
     post = trimesh.creation.box((0.08, 0.08, 0.28))
-    for x, y in ((0.6, 0.0), (0.65, 0.0), (0.7, 0.05)):
+    from symjax.datasets.scan_scenes import _WORKSPACE
+
+    (x0, x1), (y0, y1) = _WORKSPACE
+    for x, y in itertools.product(np.linspace(x0, x1, 4), np.linspace(y0, y1, 5)):
         post_w = post.copy()
         post_w.apply_translation((x, y, r.table_height() + 0.14))
         scene = PlanningScene(r, {"post": [(post_w.vertices, post_w.faces)]})

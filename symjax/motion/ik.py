@@ -88,8 +88,8 @@ class ArmIK:
         pairs = [(robot, env)] if env else []
         if carried:
             # Lifting off the table: the held object starts on it (``avoid`` has "table").
-            table = int(sm.fixed_geoms[0])
-            env_c = [g for g in env + others if not ("table" in avoid and g == table)]
+            t = int(sm.fixed_geoms[0])
+            env_c = [g for g in env + others if not ("table" in avoid and g == t)]
             if env_c:
                 pairs.append((carried, env_c))
         # Self-collision: the hand (and what it holds) against the arm links the MJCF does not

@@ -53,7 +53,8 @@ class _RobotInfo:
 
 
 _INFO = {
-    # home: the hand pointing down, flange 0.57 m above the table centre line (solved offline).
+    # home: the hand pointing down, the TCP 0.394 m above the table at x 0.6 m, y 0 (solved
+    # offline with mink), above the tallest scene object (0.27 m).
     "kth": _RobotInfo(
         "sdh",
         ("a1", "a2", "a3", "a4", "a5", "a6"),
@@ -69,7 +70,7 @@ _INFO = {
         "barrett",
         ("s1", "s2", "s3", "e1", "e2", "w1", "w2"),
         "pa10_base",
-        (-0.145, 0.28, 0.175, 1.595, -0.05, 1.271, -1.531),
+        (-0.145, 0.227, 0.179, 1.356, -0.04, 1.562, -1.54),
         # PA10-7C data: 57 deg/s (S1, S2), 114 deg/s (S3, E1), 360 deg/s (E2, W1, W2).
         # Accelerations chosen (not published).
         tuple(np.radians((57.0, 57.0, 114.0, 114.0, 360.0, 360.0, 360.0))),
