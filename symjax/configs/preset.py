@@ -3,9 +3,9 @@ the checkout, packaged as ``symjax/presets``).
 
 A preset file has one table per concept (``[symmetry]``, ``[completion]``, ``[normals]``,
 ``[poisson]``, ``[delaunay]``, ``[segmentation]``, ``[decompose]``, ``[candidates]``,
-``[simulation]``, ``[motion]``, ``[platform]``, ``[camera]``, ``[execution]``, ``[generate]``,
-``[evaluation]``), each holding only the fields it changes from the defaults next to the code.
-``extends = "name"`` starts from another preset. Job configs that need several concepts
+``[simulation]``, ``[robustness]``, ``[motion]``, ``[platform]``, ``[camera]``, ``[execution]``,
+``[generate]``, ``[evaluation]``), each holding only the fields it changes from the defaults next
+to the code. ``extends = "name"`` starts from another preset. Job configs that need several concepts
 (:class:`~symjax.evaluation.EvalConfig`) are composed from the tables, so each value lives in one
 place.
 """
@@ -26,6 +26,7 @@ from symjax.errors import ConfigError, FileFormatError, MissingFileError, unknow
 from symjax.evaluation.config import EvalConfig
 from symjax.execution import ExecutionConfig
 from symjax.grasp.config import CandidateConfig
+from symjax.grasp.robustness import RobustnessConfig
 from symjax.grasp.sim_config import SimulationConfig
 from symjax.motion.config import MotionConfig
 from symjax.perception.config import SegmentationConfig
@@ -50,6 +51,7 @@ SECTIONS: dict[str, type] = {
     "decompose": DecomposeConfig,
     "candidates": CandidateConfig,
     "simulation": SimulationConfig,
+    "robustness": RobustnessConfig,
     "motion": MotionConfig,
     "execution": ExecutionConfig,
     "generate": DatasetSpec,
@@ -77,6 +79,7 @@ class Preset:
         decompose: coacd convex decomposition.
         candidates: Grasp candidate generators.
         simulation: Grasp rollouts.
+        robustness: Perturbed hand poses in the grasp ranking.
         motion: Arm motion planning (IK, approach, transit, timing).
         execution: Batch and chunk sizes (speed only).
         generate: A grasp data set's objects, hands and counts (``symjax generate``).
@@ -96,6 +99,7 @@ class Preset:
     decompose: DecomposeConfig
     candidates: CandidateConfig
     simulation: SimulationConfig
+    robustness: RobustnessConfig
     motion: MotionConfig
     execution: ExecutionConfig
     generate: DatasetSpec

@@ -10,6 +10,7 @@ from symjax.completion.config import CompletionConfig
 from symjax.decompose.config import DecomposeConfig
 from symjax.execution import ExecutionConfig
 from symjax.grasp.config import CandidateConfig
+from symjax.grasp.robustness import RobustnessConfig
 from symjax.grasp.sim_config import SimulationConfig
 from symjax.surface.config import DelaunayConfig, NormalsConfig, PoissonConfig
 from symjax.symmetry.config import SymmetryConfig
@@ -26,7 +27,8 @@ class ShapeToGraspStages:
 
     Attributes:
         symmetry, completion, normals, poisson, delaunay, decompose, candidates, simulation,
-            execution: The stages' configs (``poisson.depth`` 7 is the paper's Mir7).
+            robustness, execution: The stages' configs (``poisson.depth`` 7 is the paper's
+            Mir7).
     """
 
     symmetry: SymmetryConfig = dataclasses.field(default_factory=SymmetryConfig)
@@ -39,6 +41,7 @@ class ShapeToGraspStages:
     decompose: DecomposeConfig = dataclasses.field(default_factory=DecomposeConfig)
     candidates: CandidateConfig = dataclasses.field(default_factory=CandidateConfig)
     simulation: SimulationConfig = dataclasses.field(default_factory=SimulationConfig)
+    robustness: RobustnessConfig = dataclasses.field(default_factory=RobustnessConfig)
     execution: ExecutionConfig = dataclasses.field(default_factory=ExecutionConfig)
 
     @classmethod

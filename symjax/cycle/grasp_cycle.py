@@ -56,13 +56,14 @@ def _plan_object(i, meshes, decs, ts, robot, hand, cfg, names, shapes=None) -> t
             hulls = [hulls] + [decompose(m, cfg.decompose) for m in shapes.meshes[1:]]
         gp = grasp.plan(meshes[i], hand, GENERATORS[robot.name], hulls=hulls, table=ts.table,
                         obstacles=others, candidates=cfg.candidates, simulation=cfg.simulation,
-                        execution=cfg.execution, backend=cfg.backend, shapes=shapes)  # fmt: skip
+                        execution=cfg.execution, backend=cfg.backend, shapes=shapes,
+                        robustness=cfg.robustness)  # fmt: skip
     except SymjaxError as e:
         rec.update(stage="GetGraspCandidates", reason=one_line(e, 240))
         return rec, None
+    sims = ("scene", "simulate", "shapes", "robustness")
     rec["seconds"] = {"GetGraspCandidates": gp.seconds["candidates"],
-                      "PlanGrasp": gp.seconds["scene"] + gp.seconds["simulate"]
-                      + gp.seconds.get("shapes", 0.0)}  # fmt: skip
+                      "PlanGrasp": sum(gp.seconds.get(k, 0.0) for k in sims)}  # fmt: skip
     rec["candidates"] = len(gp)
     o = gp.outcomes.numpy()
     rec["stable"] = int(np.sum(o.success))

@@ -4,7 +4,8 @@ Modules: ``config`` and ``sim_config`` (settings), ``candidate_set`` (the batch 
 ``approach`` (TCP frames), ``mesh_rays`` (ray casting, inside test), ``candidates`` (the
 generators), ``scene`` (the MjSpec grasp scene), ``schedule`` (open-loop inputs), ``labels``,
 ``backends`` (MJX and C MuJoCo), ``rollout`` (:func:`simulate`), ``quality`` (closure, epsilon),
-``outcomes``, ``planner`` (:func:`plan`, :func:`rank`, :func:`robust_scores`).
+``outcomes``, ``robustness`` (perturbed hand poses), ``planner`` (:func:`plan`, :func:`rank`,
+:func:`robust_scores`).
 """
 
 from symjax.grasp.approach import approach_frame, roll_for_axis
@@ -16,6 +17,7 @@ from symjax.grasp.mesh_rays import cast_rays, inside_mesh, ray_mesh
 from symjax.grasp.outcomes import GraspOutcomes
 from symjax.grasp.planner import GraspPlan, plan, rank, robust_scores
 from symjax.grasp.quality import contact_quality, epsilon_l1, force_closure, primitive_wrenches
+from symjax.grasp.robustness import RobustnessConfig, perturbed_candidates, pose_robustness
 from symjax.grasp.rollout import simulate
 from symjax.grasp.scene import GraspScene, build_scene
 from symjax.grasp.sim_config import SimulationConfig
@@ -30,6 +32,7 @@ __all__ = [
     "GraspOutcomes",
     "GraspPlan",
     "GraspScene",
+    "RobustnessConfig",
     "SimulationConfig",
     "approach_frame",
     "build_scene",
@@ -41,7 +44,9 @@ __all__ = [
     "generate",
     "inside_mesh",
     "kth_grasp_points",
+    "perturbed_candidates",
     "plan",
+    "pose_robustness",
     "primitive_wrenches",
     "rank",
     "robust_scores",

@@ -18,6 +18,7 @@ from symjax.grasp.candidate_set import Candidates, CandidateSet
 from symjax.grasp.candidates import generate
 from symjax.grasp.config import CandidateConfig
 from symjax.grasp.outcomes import GraspOutcomes
+from symjax.grasp.robustness import RobustnessConfig, pose_robustness
 from symjax.grasp.rollout import simulate
 from symjax.grasp.scene import GraspScene, build_scene
 from symjax.grasp.sim_config import SimulationConfig
@@ -45,6 +46,8 @@ class GraspPlan:
             else None.
         robust: With ``shapes``: (N,) the ranking's score across the shapes (the weighted mean
             success, the planner's predicted success); else None.
+        robustness: With ``robustness`` enabled: (N,) the share of hand poses (the planned one
+            and the perturbed ones) at which each ranked candidate holds; else None.
     """
 
     candidates: Candidates
@@ -55,6 +58,7 @@ class GraspPlan:
     seconds: dict[str, float]
     shape_success: np.ndarray | None = None
     robust: np.ndarray | None = None
+    robustness: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.order)
@@ -65,7 +69,9 @@ class GraspPlan:
         return int(self.order[0])
 
 
-def rank(outcomes: GraspOutcomes, by: str = "success", scores: Any = None) -> np.ndarray:
+def rank(
+    outcomes: GraspOutcomes, by: str = "success", scores: Any = None, robustness: Any = None
+) -> np.ndarray:
     """Candidate order, best first.
 
     Args:
@@ -76,6 +82,9 @@ def rank(outcomes: GraspOutcomes, by: str = "success", scores: Any = None) -> np
             would rank.
         scores: Keys ranked before all of these, most important first, each (N,), larger is
             better (the robust scores across shapes, :func:`robust_scores`), or None.
+        robustness: (N,) key ranked right after the success, larger is better (the share of
+            perturbed hand poses that hold, :func:`~symjax.grasp.robustness.pose_robustness`),
+            or None.
 
     Returns:
         Indices into ``outcomes``, shape (N,). Ties keep the generator's order (stable sort).
@@ -92,6 +101,8 @@ def rank(outcomes: GraspOutcomes, by: str = "success", scores: Any = None) -> np
         -np.asarray(o.force_closure, float),
     ]
     if by == "success":
+        if robustness is not None:
+            keys.append(-np.asarray(robustness, float))
         keys.append(-np.asarray(o.success, float))
     keys += [-np.asarray(k, float) for k in reversed(list(scores or []))]
     return np.lexsort(keys)
@@ -143,6 +154,7 @@ def plan(
     shapes: Any = None,
     robust: str = "mean",
     quantile: float = 0.25,
+    robustness: RobustnessConfig | None = None,
 ) -> GraspPlan:
     """Generates grasp candidates for an object, rolls them all out, and ranks them.
 
@@ -172,6 +184,9 @@ def plan(
             ranked by ``robust`` across them, then as :func:`rank` on ``mesh``.
         robust: ``"mean"`` or ``"quantile"`` (:func:`robust_scores`).
         quantile: The lower quantile of ``robust="quantile"``.
+        robustness: :class:`~symjax.grasp.robustness.RobustnessConfig`; when enabled, the
+            stable candidates are rolled out again at perturbed hand poses (on ``mesh``) and
+            ranked, after their success, by the share of poses that hold.
 
     Returns:
         A :class:`GraspPlan`.
@@ -238,7 +253,16 @@ def plan(
         ])  # fmt: skip
         keys = robust_scores(success, shapes.weights, robust, quantile)
         seconds["shapes"] = time.perf_counter() - t3
-    order = rank(out, scores=keys)
+    rob = None
+    if robustness is not None and robustness.enabled:
+        t4 = time.perf_counter()
+        rob = pose_robustness(
+            cs.candidates, out.success, config=robustness,
+            rollout=lambda c: simulate(None, c, hand, backend=backend, scene=scene,
+                                       execution=execution).success,
+        )  # fmt: skip
+        seconds["robustness"] = time.perf_counter() - t4
+    order = rank(out, scores=keys, robustness=rob)
     ranked = jax.tree_util.tree_map(lambda x: np.asarray(x)[order], cs.candidates)
     return GraspPlan(
         candidates=ranked,
@@ -249,6 +273,7 @@ def plan(
         seconds=seconds,
         shape_success=None if success is None else success[:, order],
         robust=None if keys is None else keys[-1][order],
+        robustness=None if rob is None else rob[order],
     )
 
 

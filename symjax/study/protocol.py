@@ -84,7 +84,7 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
                                 candidates=cfg.candidates, simulation=cfg.simulation,
                                 execution=cfg.execution, backend=cfg.backend,
                                 shapes=meshes[k] if k == "K" else None,
-                                robust=cfg.robust)  # fmt: skip
+                                robust=cfg.robust, robustness=cfg.robustness)  # fmt: skip
             except SymjaxError as e:
                 rows[k] = {"planned": 0, "predicted": [], "error": one_line(e, 240)}
                 continue
