@@ -72,6 +72,11 @@ def test_only_stable_grasps_are_rolled_out_again():
     assert np.all(pose_robustness(c, np.zeros(5, bool), rollout, cfg) == 0) and sizes == [18]
     with pytest.raises(ShapeError):
         pose_robustness(c, ok[:3], rollout, cfg)
+    # At most max_grasps stable grasps, the first in the given order: 3 then 2 (not 0).
+    sizes.clear()
+    capped = RobustnessConfig(enabled=True, max_grasps=2)
+    r2 = pose_robustness(c, ok, lambda b: np.ones(len(b), bool), capped, order=[4, 3, 1, 2, 0])
+    assert sizes == [] and np.flatnonzero(r2).tolist() == [2, 3] and np.all(r2[[2, 3]] == 1)
 
 
 def test_rank_puts_robustness_right_after_success():
@@ -103,14 +108,17 @@ def test_plan_robustness_matches_plain_rollouts_of_the_perturbed_poses():
     assert plain.robustness is None and "robustness" in p.seconds
     c = p.candidate_set.candidates
     ok = np.asarray(plain.outcomes.success, bool)[np.argsort(plain.order)]  # generator order
+    # The cap: the first max_grasps stable grasps of the one-rollout ranking.
+    held = plain.order[np.asarray(plain.outcomes.success, bool)][: cfg.max_grasps]
     scene = grasp.build_scene([(v, f)], hand)
-    moved = grasp.simulate(None, perturbed_candidates(c.take(np.flatnonzero(ok)), cfg), hand,
-                           backend="mujoco", scene=scene)  # fmt: skip
+    moved = grasp.simulate(None, perturbed_candidates(c.take(held), cfg), hand, backend="mujoco",
+                           scene=scene)  # fmt: skip
     want = np.zeros(len(c))
-    want[ok] = (1 + np.asarray(moved.success, float).reshape(6, -1).sum(axis=0)) / 7
+    want[held] = (1 + np.asarray(moved.success, float).reshape(6, -1).sum(axis=0)) / 7
     np.testing.assert_allclose(p.robustness, want[p.order])
     np.testing.assert_array_equal(p.order, rank(plain.outcomes.take(np.argsort(plain.order)),
                                                 robustness=want))  # fmt: skip
+    assert ok.sum() > cfg.max_grasps  # the cap matters here
     assert 0 < ok.sum() and np.any((want > 0) & (want < 1))  # some grasps hinge on the pose
 
 
@@ -120,6 +128,7 @@ def test_plan_robustness_matches_plain_rollouts_of_the_perturbed_poses():
         ({"shift": -0.01}, ["shift", "-0.01", "[0, 0.1]"]),
         ({"roll_deg": 120.0}, ["roll_deg", "120.0", "[0, 90]"]),
         ({"enabled": True, "shift": 0.0, "roll_deg": 0.0}, ["no pose to try"]),
+        ({"max_grasps": 0}, ["max_grasps", ">= 1", "0"]),
     ],
 )
 def test_config_rejects_bad_values(kw, words):

@@ -185,8 +185,9 @@ def plan(
         robust: ``"mean"`` or ``"quantile"`` (:func:`robust_scores`).
         quantile: The lower quantile of ``robust="quantile"``.
         robustness: :class:`~symjax.grasp.robustness.RobustnessConfig`; when enabled, the
-            stable candidates are rolled out again at perturbed hand poses (on ``mesh``) and
-            ranked, after their success, by the share of poses that hold.
+            stable candidates (the ``max_grasps`` best) are rolled out again at perturbed hand
+            poses (on ``mesh``) and ranked, after their success, by the share of poses that
+            hold.
 
     Returns:
         A :class:`GraspPlan`.
@@ -257,7 +258,7 @@ def plan(
     if robustness is not None and robustness.enabled:
         t4 = time.perf_counter()
         rob = pose_robustness(
-            cs.candidates, out.success, config=robustness,
+            cs.candidates, out.success, config=robustness, order=rank(out, scores=keys),
             rollout=lambda c: simulate(None, c, hand, backend=backend, scene=scene,
                                        execution=execution).success,
         )  # fmt: skip

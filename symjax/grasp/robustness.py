@@ -34,11 +34,14 @@ class RobustnessConfig:
         shift: Shift of the grasp point along the hand's closing axis and along its other
             axis across the approach, both signs (four poses), metres.
         roll_deg: Roll about the approach, both signs (two poses), degrees.
+        max_grasps: At most this many stable grasps are rolled out again, the best first by
+            the one-rollout ranking; the stable grasps after them keep that order, behind them.
     """
 
     enabled: bool = False
     shift: float = 0.01
     roll_deg: float = 15.0
+    max_grasps: int = 10
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -48,6 +51,8 @@ class RobustnessConfig:
             raise ConfigError(
                 f"RobustnessConfig.roll_deg must be in [0, 90] degrees, got {self.roll_deg}"
             )
+        if self.max_grasps < 1:
+            raise ConfigError(f"RobustnessConfig.max_grasps must be >= 1, got {self.max_grasps}")
         if self.enabled and self.shift == 0.0 and self.roll_deg == 0.0:
             raise ConfigError(
                 "RobustnessConfig is enabled with shift 0 and roll_deg 0: no pose to try;"
@@ -91,11 +96,12 @@ def pose_robustness(
     success: ArrayLike,
     rollout: Callable[[Candidates], ArrayLike],
     config: RobustnessConfig,
+    order: ArrayLike | None = None,
 ) -> np.ndarray:
     """Share of the poses (the planned one and the perturbed ones) at which a grasp holds.
 
-    Only the grasps that hold at the planned pose are rolled out again (one batch); the others
-    score 0.
+    Only grasps that hold at the planned pose are rolled out again (one batch), at most
+    ``config.max_grasps`` of them, the first in ``order``; the others score 0.
 
     Args:
         candidates: N candidates.
@@ -103,6 +109,7 @@ def pose_robustness(
         rollout: Rolls a batch of candidates out, returning its (M,) success (the same scene
             the planned poses were rolled out in).
         config: The perturbations.
+        order: (N,) indices, the preferred first (the one-rollout ranking); None = as given.
 
     Returns:
         (N,) float64 in [0, 1].
@@ -114,7 +121,8 @@ def pose_robustness(
     if ok.shape != (len(candidates),):
         raise ShapeError(f"success must have shape ({len(candidates)},), got {ok.shape}")
     out = np.zeros(len(candidates))
-    held = np.flatnonzero(ok)
+    first = np.arange(len(ok)) if order is None else np.asarray(order, np.int64)
+    held = first[ok[first]][: config.max_grasps]
     if len(held) == 0:
         return out
     p = config.n_poses
