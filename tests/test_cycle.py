@@ -173,3 +173,14 @@ def test_a_real_frame_is_planned_for_not_executed(one_can, cache):
     assert "ExecuteGrasp" not in r.seconds and r.seconds["PlanArmTrajectory"] > 0
     assert [o.stage for o in rep.objects] == ["ExecuteGrasp"]
     assert "not executed" in rep.objects[0].reason
+
+
+def test_objects_never_tried_say_why():
+    # Objects no hypothesis of the last frame stood for (UJI scene 7, K: the mug and the can after
+    # the first pick) were reported as stopped at PlanGrasp with no reason.
+    from symjax.cycle.grasp_cycle import untried_outcome
+
+    stage, why = untried_outcome(False, "nothing plans")
+    assert stage == "GetObjectHypotheses" and "not found as an object of its own" in why
+    stage, why = untried_outcome(True, "attempts exhausted")
+    assert stage == "PlanGrasp" and why == "not tried before the cycle stopped (attempts exhausted)"

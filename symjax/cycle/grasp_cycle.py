@@ -163,6 +163,7 @@ def clear_table(
         depth, camera = _frame(world, scene_or_frame)
         ts = perception.segment(depth, camera, cfg.segmentation)
         sec["GetObjectHypotheses"] = time.perf_counter() - t0
+        seen: set[str] = set()  # the objects a hypothesis of this frame stands for
         if index == 0:
             warnings = ts.warnings
             extras["first"] = {"depth": depth, "segmentation": ts}
@@ -172,6 +173,8 @@ def clear_table(
             break
         k = len(ts.objects)
         match = world.match(ts.labels, k) if world is not None else [-1] * k
+        if world is not None:
+            seen = {world.names[world.alive[j]] for j in match if j >= 0}
         names = [f"h{i}" for i in range(k)]
         t0 = time.perf_counter()
         truth_m = truth_d = None
@@ -236,14 +239,11 @@ def clear_table(
     if world is not None and not world.alive and stop != "table clear":
         stop = "table clear"
     if world is not None:
+        for n, o in outcome.items():
+            if not o["cleared"] and not o["stage"]:
+                o["stage"], o["reason"] = untried_outcome(n in seen, stop)
         objects = tuple(
-            ObjectOutcome(
-                n,
-                o["cleared"],
-                o["attempts"],
-                o["stage"] or ("" if o["cleared"] else "PlanGrasp"),
-                o["reason"],
-            )
+            ObjectOutcome(n, o["cleared"], o["attempts"], o["stage"], o["reason"])
             for n, o in outcome.items()
         )
     else:
@@ -254,6 +254,15 @@ def clear_table(
     return CycleReport(r.name, cfg.mode, objects, tuple(rounds), stop,
                        time.perf_counter() - t_start, tuple(warnings),
                        extras if pictures else {})  # fmt: skip
+
+
+def untried_outcome(seen: bool, stop: str) -> tuple[str, str]:
+    """``(stage, reason)`` of an object that was never tried: unseen in the last frame, or seen
+    but not reached before the cycle stopped (``stop``, the report's stop reason)."""
+    if not seen:
+        return ("GetObjectHypotheses", "not found as an object of its own in the last frame"
+                " (hidden behind another object or merged with one)")  # fmt: skip
+    return "PlanGrasp", f"not tried before the cycle stopped ({stop})"
 
 
 def _distinct(poses: list) -> list:
