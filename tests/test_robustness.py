@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 import trimesh
-from test_simulate import SMALL
+from test_simulate import SMALL, outcomes
 
 from symjax import configs, grasp, hands
 from symjax.errors import ConfigError, ShapeError
-from symjax.grasp import Candidates, GraspOutcomes, RobustnessConfig, rank
+from symjax.grasp import Candidates, RobustnessConfig, rank
 from symjax.grasp.robustness import perturbed_candidates, pose_robustness
 
 
@@ -80,16 +80,7 @@ def test_only_stable_grasps_are_rolled_out_again():
 
 
 def test_rank_puts_robustness_right_after_success():
-    o = GraspOutcomes(
-        success=np.array([True, True, False, True]),
-        force_closure=np.array([True, True, True, True]),
-        epsilon=np.array([0.3, 0.1, 0.9, 0.2]),
-        n_fingers=np.array([3, 3, 3, 3]),
-        **{k: np.zeros(4) for k in ("n_contacts", "penetration", "start_penetration",
-                                    "table_contact", "travel", "close_motion",
-                                    "close_rotation", "shake_motion", "shake_rotation",
-                                    "lift", "diverged", "hand_q")},
-    )  # fmt: skip
+    o = outcomes([True, True, False, True], [True] * 4, [0.3, 0.1, 0.9, 0.2], [3] * 4)
     np.testing.assert_array_equal(rank(o), [0, 3, 1, 2])
     # The failure (2) stays last however robust; among successes, robustness before epsilon.
     np.testing.assert_array_equal(rank(o, robustness=[0.5, 1.0, 1.0, 0.5]), [1, 0, 3, 2])

@@ -177,18 +177,20 @@ def test_nan_states_give_clean_failed_labels(objects, hand_models):
         assert np.all(np.isfinite(np.asarray(out[name])))
 
 
+def outcomes(success, force_closure, epsilon, n_fingers) -> grasp.GraspOutcomes:
+    """Outcomes with the ranking's fields given, every other field 0."""
+    rest = ("n_contacts", "penetration", "start_penetration", "table_contact", "travel",
+            "close_motion", "close_rotation", "shake_motion", "shake_rotation", "lift",
+            "diverged", "hand_q")  # fmt: skip
+    return grasp.GraspOutcomes(success=np.asarray(success), force_closure=np.asarray(force_closure),
+                               epsilon=np.asarray(epsilon), n_fingers=np.asarray(n_fingers),
+                               **{k: np.zeros(len(success)) for k in rest})  # fmt: skip
+
+
 def test_rank_orders_success_then_quality():
     """By success: [2, 1] succeeded (2 has the larger epsilon); by quality: epsilon alone."""
-    o = grasp.GraspOutcomes(
-        success=np.array([False, True, True, False]),
-        force_closure=np.array([True, True, True, False]),
-        epsilon=np.array([0.3, 0.1, 0.2, 0.0]),
-        n_fingers=np.array([3, 3, 3, 0]),
-        **{k: np.zeros(4) for k in ("n_contacts", "penetration", "start_penetration",
-                                    "table_contact", "travel", "close_motion",
-                                    "close_rotation", "shake_motion", "shake_rotation",
-                                    "lift", "diverged", "hand_q")},
-    )  # fmt: skip
+    o = outcomes([False, True, True, False], [True, True, True, False], [0.3, 0.1, 0.2, 0.0],
+                 [3, 3, 3, 0])  # fmt: skip
     np.testing.assert_array_equal(rank(o), [2, 1, 0, 3])
     np.testing.assert_array_equal(rank(o, by="quality"), [0, 2, 1, 3])
     with pytest.raises(UnknownNameError):
