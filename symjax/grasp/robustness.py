@@ -83,7 +83,7 @@ def perturbed_candidates(candidates: Candidates, config: RobustnessConfig) -> Ca
         for axis in (0, 1):
             for sign in (1.0, -1.0):
                 moved = point + sign * config.shift * frames[:, :, axis]
-                out.append(dataclasses.replace(candidates, point=moved.astype(point.dtype)))
+                out.append(dataclasses.replace(candidates, point=moved))
     if config.roll_deg > 0:
         for sign in (1.0, -1.0):
             turned = roll + sign * math.radians(config.roll_deg)
