@@ -73,6 +73,7 @@ class ArmIK:
         posture.set_target(self.scene.full_q(self.scene.robot.home))
         freeze = mink.DofFreezingTask(m, dof_indices=list(range(n, m.nv)))
         env = [int(g) for g in sm.fixed_geoms if m.geom(int(g)).name != "floor"]
+        table_geom = int(sm.fixed_geoms[0])
         # The objects other than the target keep the wider obstacle margin (own limit below).
         wide = cfg.obstacle_margin > cfg.clearance
         others: list[int] = []
@@ -88,8 +89,7 @@ class ArmIK:
         pairs = [(robot, env)] if env else []
         if carried:
             # Lifting off the table: the held object starts on it (``avoid`` has "table").
-            t = int(sm.fixed_geoms[0])
-            env_c = [g for g in env + others if not ("table" in avoid and g == t)]
+            env_c = [g for g in env + others if not ("table" in avoid and g == table_geom)]
             if env_c:
                 pairs.append((carried, env_c))
         # Self-collision: the hand (and what it holds) against the arm links the MJCF does not
@@ -106,11 +106,10 @@ class ArmIK:
         limits = [mink.ConfigurationLimit(m)]
         if table is not None and env:
             # The table keeps its own clearance (the approach's): robot-table is its own limit.
-            t = int(sm.fixed_geoms[0])
-            pairs = [(robot, [g for g in env if g != t]), *pairs[1:]]
+            pairs = [(robot, [g for g in env if g != table_geom]), *pairs[1:]]
             if table > 0:
                 limits.append(mink.CollisionAvoidanceLimit(
-                    m, [(robot, [t])], minimum_distance_from_collisions=table,
+                    m, [(robot, [table_geom])], minimum_distance_from_collisions=table,
                     collision_detection_distance=cfg.detection_distance,
                 ))  # fmt: skip
         pairs = [pr for pr in pairs if pr[0] and pr[1]]
