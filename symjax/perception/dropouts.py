@@ -82,6 +82,7 @@ def claim_dropouts(
         claims it (and on every measured pixel).
     """
     import cv2
+    from scipy.ndimage import find_objects
 
     out = np.full(labels.shape, -1, np.int32)
     if not points or max_px <= 0:
@@ -95,16 +96,18 @@ def claim_dropouts(
     best = np.full(labels.shape, np.inf)
     free = ~valid & (labels < 0)
     H, W = labels.shape
+    # Each object's box from one pass over the labels, not a full-frame scan per object.
+    boxes = find_objects(np.maximum(labels + 1, 0), max_label=int(labels.max(initial=-1)) + 1)
     for k, p in points.items():
-        rows, cols = np.nonzero(labels == k)
-        if len(p) < 3 or len(rows) == 0:
+        box = boxes[k] if 0 <= k < len(boxes) else None
+        if len(p) < 3 or box is None:
             continue
         hull, top = _column(np.asarray(p, np.float64), basis, offset)
         if len(hull) < 3 or top <= 0:
             continue
         # Within max_px of this object in the image: its box and margin only.
-        r0, r1 = max(rows.min() - max_px, 0), min(rows.max() + max_px + 1, H)
-        c0, c1 = max(cols.min() - max_px, 0), min(cols.max() + max_px + 1, W)
+        r0, r1 = max(box[0].start - max_px, 0), min(box[0].stop + max_px, H)
+        c0, c1 = max(box[1].start - max_px, 0), min(box[1].stop + max_px, W)
         crop = (slice(r0, r1), slice(c0, c1))
         near = cv2.distanceTransform((labels[crop] != k).astype(np.uint8), cv2.DIST_L2, 3)
         rr, cc = np.nonzero(free[crop] & (near <= max_px))

@@ -122,4 +122,7 @@ def occluder_depth(labels: np.ndarray, depth: np.ndarray, occluders: tuple[int, 
     elsewhere: space the object may extend behind, not free space seen empty (Eq. 3)."""
     if not occluders:
         return np.zeros(labels.shape, np.float32)
-    return np.where(np.isin(labels, occluders), depth, 0.0).astype(np.float32)
+    # A lookup table indexed by label, not np.isin: isin sorts the whole frame (7 ms at 720p).
+    lut = np.zeros(max(int(labels.max()), *occluders) + 2, bool)
+    lut[np.asarray(occluders) + 1] = True
+    return np.where(lut[labels + 1], depth, np.float32(0.0)).astype(np.float32)

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from symjax._threads import serial_blas
 from symjax.camera import Camera
 from symjax.errors import ConfigError, EmptyInputError, InvalidInputError, ShapeError
 from symjax.geometry import pixel_rays
@@ -337,6 +338,11 @@ def segment(
         EmptyInputError: Fewer than 3 measurements.
         DegenerateGeometryError: No table plane in the data.
     """
+    with serial_blas():
+        return _segment(data, camera, config, rgb)
+
+
+def _segment(data: Any, camera: Camera | None, config, rgb) -> TableScene:
     from symjax.io.depth_frame import DepthFrame
     from symjax.io.point_cloud import PointCloud
 

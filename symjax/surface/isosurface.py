@@ -125,11 +125,21 @@ def _clip_outside(chi: np.ndarray, grid: PoissonGrid, hull: np.ndarray, iso: flo
     a, d = hull[:, :3], hull[:, 3]
     start = np.asarray(grid.origin, np.float64) + cell * np.array([b.start for b in box])
 
+    a32, d32 = a.astype(np.float32), d.astype(np.float32)
+
     def excess(ijk: np.ndarray) -> np.ndarray:
-        x = (start + cell * ijk).astype(np.float32)
-        out = np.empty(len(x), np.float32)
-        for s in range(0, len(x), 16384):  # a (16384, F) temporary at a time
-            out[s : s + 16384] = (x[s : s + 16384] @ a.T.astype(np.float32) + d).max(axis=1)
+        x, y, z = (start + cell * ijk).astype(np.float32).T.copy()
+        out = np.full(len(x), -np.inf, np.float32)
+        tmp = np.empty_like(out)
+        # A facet at a time over (N,) vectors, not ``x @ a.T``: a matmul of inner size 3 gains
+        # nothing from BLAS, whose threads then spin against the other views' meshing (a
+        # depth-7 batch on 2 cores: 126 -> 93 ms a view), and no (N, F) temporary is made.
+        for (ax, ay, az), dk in zip(a32, d32, strict=True):
+            np.multiply(x, ax, out=tmp)
+            tmp += y * ay
+            tmp += z * az
+            tmp += dk
+            np.maximum(out, tmp, out=out)
         return out
 
     coarse = [np.arange(0, m, 2) for m in sub.shape]
