@@ -6,8 +6,9 @@ Cases:
                object's views scored by a model fitted without that object), the support alone
                and the vote of Eq. 3 alone (the threshold the paper proposed).
   revolution   Mir7 of the views the default revolves, revolved against mirrored.
-  fallback     Mir7 of the flagged views (confidence < flag_below), the footprint hull against
-               the mirror it would replace.
+  fallback     Mir7 of the flagged views (confidence < flag_below): the default's completion
+               (the fallback to the best-supported near-best plane, or the revolution) and the
+               footprint hull against the mirror they replace.
   overall      Mir7 mean over every view, the default (``mode="auto"``) against the paper's
                mirror.
   time         per-view time of the choice (support, rivals, axis fit, and the oriented cloud)
@@ -99,7 +100,7 @@ def main(argv=None) -> int:
     )
     res = search_batch([v.observation for v in views])
     cfg = CompletionConfig()
-    fallback = dataclasses.replace(cfg, mode="fallback")
+    hull = dataclasses.replace(cfg, mode="fallback", fallback="hull")
     recs = []
     t_choice, t_mirror = [], []
     for i, v in enumerate(views):
@@ -116,8 +117,7 @@ def main(argv=None) -> int:
                    residual=float(c.revolution.residual))  # fmt: skip
         rec["chosen"] = m7 if c.kind == "mirror" else _mir7(v, c.oriented or c.mesh)
         if c.flagged:
-            hull = choose_completion(r, v.observation, fallback).mesh
-            rec["hull"] = _mir7(v, hull)
+            rec["hull"] = _mir7(v, choose_completion(r, v.observation, hull).mesh)
         try:
             deg, off = plane_error(r.normal, float(r.offset), **symmetry_truth(v))
         except SymjaxError:  # the truth is unknown
@@ -172,11 +172,16 @@ def main(argv=None) -> int:
         {
             "case": "fallback",
             "n_flagged": len(flagged),
-            "mir7_hull_mm": round(float(np.mean([r["hull"] for r in flagged])), 3),
+            "kinds": {k: sum(r["kind"] == k for r in flagged) for k in ("fallback", "mirror",
+                                                                       "revolution")},
+            "mir7_default_mm": round(float(np.mean([r["chosen"] for r in flagged])), 3),
             "mir7_mirror_mm": round(float(np.mean([r["mirror"] for r in flagged])), 3),
-            "better_on": sum(r["hull"] < r["mirror"] for r in flagged),
+            "better_on": sum(r["chosen"] < r["mirror"] - 1e-9 for r in flagged),
+            "worse_on": sum(r["chosen"] > r["mirror"] + 1e-9 for r in flagged),
+            "mir7_hull_mm": round(float(np.mean([r["hull"] for r in flagged])), 3),
+            "hull_better_on": sum(r["hull"] < r["mirror"] for r in flagged),
         }
-    )
+    )  # fmt: skip
     rows.emit(
         {
             "case": "overall",

@@ -26,7 +26,7 @@ from symjax.completion import (
 )
 from symjax.completion.revolution import profile_consistent
 from symjax.errors import ConfigError, DegenerateGeometryError, ShapeError
-from symjax.surface import OrientedPoints, poisson_reconstruct
+from symjax.surface import OrientedPoints, oriented_completion, poisson_reconstruct
 from symjax.symmetry import search_batch
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -205,12 +205,75 @@ def test_the_modes_force_their_completion(primitive_views):
     obs, res = primitive_views
     paper = choose_completion(res[0], obs[0], CompletionConfig(mode="mirror"))
     assert paper.kind == "mirror" and paper.oriented.mirrored.any()
-    fb = choose_completion(res[1], obs[1], CompletionConfig(mode="fallback"))
+    fb = choose_completion(res[1], obs[1], CompletionConfig(mode="fallback", fallback="hull"))
     assert fb.kind == "fallback" and fb.oriented is None and fb.mesh.is_watertight
     # The hull reaches down to the table and holds every observed point.
     assert fb.mesh.bounds[0, 2] == pytest.approx(obs[1].table.offset, abs=1e-6)
-    auto = choose_completion(res[1], obs[1], CompletionConfig(min_confidence=1.0))
+    auto = choose_completion(res[1], obs[1], CompletionConfig(min_confidence=1.0, fallback="hull"))
     assert auto.kind == "fallback" and "<" in auto.reason
+
+
+def test_the_support_fallback_mirrors_across_the_plane_it_names(primitive_views):
+    from symjax.completion import supported_plane
+    from symjax.symmetry import mirror_across
+
+    obs, res = primitive_views
+    c = choose_completion(res[1], obs[1])
+    index = SupportIndex(c.visible, CompletionConfig().support_samples)
+    # Any gain: the best-supported near-best plane replaces the mirror, and it is the one the
+    # completion was mirrored across.
+    cfg = CompletionConfig(mode="fallback", support_gain=0.0)
+    plane = supported_plane(res[1], obs[1].table.normal, index, -1.0, cfg)
+    fb = choose_completion(res[1], obs[1], cfg)
+    assert plane is not None and fb.kind == "fallback" and fb.mesh is None
+    want = mirror_across(res[1], obs[1], plane[0], plane[1])
+    np.testing.assert_array_equal(
+        fb.oriented.points, oriented_completion(want, obs[1].camera).points
+    )
+    assert f"support {plane[2]:.2f}" in fb.reason
+    # A gain no plane reaches: the mirror is kept, and the reason says so.
+    kept = choose_completion(res[1], obs[1], dataclasses.replace(cfg, support_gain=1.0))
+    assert kept.kind == "mirror" and "the mirror is kept" in kept.reason
+
+
+class _Grid:
+    """A search result's first grid, as :func:`symjax.completion.grid_planes` reads it."""
+
+    def __init__(self, votes, angles, shifts):
+        self.votes, self.angles, self.shifts = votes, angles, shifts
+        self.initial_axis = np.array([0.0, 1.0, 0.0])  # m0 = z x y = -x
+        self.centroid = np.zeros(3)
+
+
+def test_supported_plane_is_the_best_supported_of_the_near_best_votes():
+    from symjax.completion import grid_planes, supported_plane
+
+    rng = np.random.default_rng(0)
+    # A cloud symmetric about x = 0.01 only.
+    half = rng.uniform([0.0, -0.05, 0.0], [0.05, 0.05, 0.1], (1500, 3))
+    pts = np.concatenate([half, half * [-1, 1, 1] + [0.02, 0, 0]])
+    index = SupportIndex(pts, 3000)
+    angles = np.radians([[-30.0, -10.0, 0.0, 10.0, 30.0]])
+    shifts = np.array([-0.01, 0.0, 0.01])
+    votes = np.array([[[5.0, 4.0, 6.0], [3.0, 2.0, 3.0], [2.9, 2.5, 2.8], [3.0, 2.0, 3.0],
+                       [1.0, 1.5, 1.0]]])  # fmt: skip
+    grid = _Grid(votes, angles, shifts)
+    normals, offsets, _ = grid_planes(grid, UP)
+    np.testing.assert_allclose(normals[0, 2], [-1.0, 0.0, 0.0], atol=1e-12)
+    cfg = CompletionConfig(support_vote_ratio=3.0, support_gain=0.1)
+    got = supported_plane(grid, UP, index, 0.0, cfg)
+    # Brute force: the supports of every plane with a vote within 3x of the best (1.0).
+    sup = {(j, k): index.support(normals[0, j], offsets[0, j, k], cfg.support_eps)
+           for j in range(5) for k in range(3) if votes[0, j, k] <= 3.0}  # fmt: skip
+    j, k = max(sup, key=sup.get)
+    assert (j, k) == (2, 0)  # the plane x = 0.01: normal -x, offset -0.01
+    assert got[1] == pytest.approx(offsets[0, 2, 0]) and got[2] == pytest.approx(sup[j, k])
+    # The ratio keeps out planes with a worse vote, the gain planes that barely beat the found.
+    assert (
+        supported_plane(grid, UP, index, 0.0, dataclasses.replace(cfg, support_vote_ratio=2.0))[2]
+        < got[2]
+    )
+    assert supported_plane(grid, UP, index, got[2] - 0.05, cfg) is None
 
 
 def test_footprint_hull_contains_the_points_and_their_shadow():
@@ -244,6 +307,9 @@ def test_a_batch_result_is_refused(primitive_views):
         {"min_confidence": 2.0},
         {"flag_below": -0.1},
         {"support_samples": 5},
+        {"fallback": "box"},
+        {"support_vote_ratio": 0.5},
+        {"support_gain": 1.5},
     ],
 )
 def test_bad_completion_config_is_refused(kw):

@@ -9,13 +9,14 @@ import numpy as np
 
 from symjax.completion.confidence import plane_confidence
 from symjax.completion.config import CompletionConfig
+from symjax.completion.fallback import footprint_hull, supported_plane
 from symjax.completion.revolution import RevolutionFit, fit_revolution, revolve
 from symjax.completion.support import SupportIndex
 from symjax.errors import ShapeError, config_or_default
 from symjax.surface.config import NormalsConfig
 from symjax.surface.normals import OrientedPoints, oriented_completion, oriented_observation
 
-__all__ = ["Completion", "choose_completion", "footprint_hull"]
+__all__ = ["Completion", "choose_completion"]
 
 Kind = Literal["mirror", "revolution", "fallback"]
 
@@ -26,15 +27,17 @@ class Completion:
 
     Attributes:
         kind: ``"mirror"`` (the paper), ``"revolution"`` (turned about the fitted axis) or
-            ``"fallback"`` (the hull of the visible points and their table footprint).
+            ``"fallback"`` (:mod:`symjax.completion.fallback`: the mirror across the near-best
+            plane the view supports best, or the hull of the visible points and their table
+            footprint).
         reason: Why this kind, in words with the numbers that decided it.
         confidence: Probability that the mirror plane is right (:func:`plane_confidence`).
         support: The plane's support in [0, 1] (:mod:`symjax.completion.support`).
         rival_support: The best rival plane's support.
         flagged: ``confidence < config.flag_below``: the mirror plane is likely wrong.
         revolution: The axis fit of the visible surface.
-        oriented: Oriented points to mesh (mirror, revolution); None for the fallback.
-        mesh: The fallback's watertight ``trimesh.Trimesh``; None otherwise.
+        oriented: Oriented points to mesh; None for the hull.
+        mesh: The hull's watertight ``trimesh.Trimesh``; None otherwise.
         visible: (N, 3) the observed points the choice used (outliers removed), metres.
     """
 
@@ -50,53 +53,26 @@ class Completion:
     visible: Any = None
 
 
-def footprint_hull(points: np.ndarray, table: Any):
-    """Convex hull of the points and their projections onto the table (a watertight mesh).
-
-    The least an object standing on the table occupies if it is convex: nothing of it is
-    assumed behind what was seen except the column down to the table. Points below the table
-    (depth noise) are lifted onto it: nothing of the object is under the table.
-
-    Raises:
-        DegenerateGeometryError: Fewer than 4 points or no volume.
-    """
-    import trimesh
-
-    from symjax.errors import DegenerateGeometryError
-
-    p = np.asarray(points, np.float64)
-    if p.ndim != 2 or p.shape[1] != 3 or len(p) < 3:
-        raise DegenerateGeometryError(f"a footprint hull needs >= 3 points (N, 3), got {p.shape}")
-    n = np.asarray(table.normal, np.float64)
-    height = np.asarray(table.height(p), np.float64)
-    p = p - np.minimum(height, 0.0)[:, None] * n
-    foot = p - np.maximum(height, 0.0)[:, None] * n
-    try:
-        hull = trimesh.Trimesh(np.concatenate([p, foot])).convex_hull
-    except Exception as e:  # qhull's own errors on flat or tiny input
-        raise DegenerateGeometryError(f"no footprint hull of {len(p)} points: {e}") from None
-    if not hull.is_volume or hull.volume <= 0:
-        raise DegenerateGeometryError(f"the footprint hull of {len(p)} points has no volume")
-    return hull
-
-
 def choose_completion(
     result: Any,
     observation: Any,
     config: CompletionConfig | None = None,
     normals: NormalsConfig | None = None,
+    symmetry: Any = None,
 ) -> Completion:
     """Chooses and builds the completion of one view from its symmetry search.
 
     With ``config.mode="auto"``: a visible surface of revolution about the table normal is
     revolved; otherwise the view is mirrored, unless the plane's confidence is below
-    ``config.min_confidence``, where the footprint hull replaces it.
+    ``config.min_confidence``, where the fallback (``config.fallback``) replaces it.
 
     Args:
         result: A single-view :class:`~symjax.symmetry.SymmetryResult`.
         observation: The :class:`~symjax.Observation` it was searched on (camera and table).
         config: :class:`CompletionConfig` (mode, thresholds).
         normals: Normal estimation of the observed and completed clouds.
+        symmetry: The search's :class:`~symjax.symmetry.SymmetryConfig` (None: the default),
+            for the fallback's mirror across another plane.
 
     Returns:
         A :class:`Completion`.
@@ -132,9 +108,21 @@ def choose_completion(
         oriented = revolve(observed, fit, cfg.revolution_copies)
         return Completion("revolution", reason, oriented=oriented, **facts)
     if cfg.mode == "fallback" or cfg.mode == "auto" and conf < cfg.min_confidence:
-        reason = "fallback asked for" if cfg.mode == "fallback" else (
-            f"{why_conf} < {cfg.min_confidence}"
-        )  # fmt: skip
-        return Completion("fallback", reason, mesh=footprint_hull(observed.points, table), **facts)
+        why = f"{why_conf} < {cfg.min_confidence}" if cfg.mode == "auto" else "fallback asked for"
+        if cfg.fallback == "hull":
+            why += ": the hull of the visible points and their footprint"
+            return Completion("fallback", why, mesh=footprint_hull(observed.points, table), **facts)
+        plane = supported_plane(result, np.asarray(table.normal), index, support, cfg)
+        if plane is not None:
+            from symjax.symmetry import mirror_across
+
+            moved = mirror_across(result, observation, plane[0], plane[1], symmetry)
+            why += (f": mirrored across the plane the view supports best among those whose"
+                    f" vote is within {cfg.support_vote_ratio:g}x of the best (support"
+                    f" {plane[2]:.2f})")  # fmt: skip
+            oriented = oriented_completion(moved, cam, normals)
+            return Completion("fallback", why, oriented=oriented, **facts)
+        why_conf = (f"{why}; no near-best plane is supported {cfg.support_gain:g} more than the"
+                    " found one: the mirror is kept")  # fmt: skip
     reason = why_conf if cfg.mode != "revolution" else f"no axis to revolve about; {why_conf}"
     return Completion("mirror", reason, oriented=oriented_completion(result, cam, normals), **facts)

@@ -37,9 +37,14 @@ class CompletionConfig:
             no axis fit (lids, rims).
         revolution_min_points: Fewest tilted points for an axis fit.
         revolution_copies: Turned copies of the observed surface around the full circle.
-        min_confidence: ``mode="auto"`` replaces the mirror by the fallback below this. Off
-            (0) by default: on the benchmark's flagged views the footprint hull deviated more
-            than the mirror it would replace (see the README's completion table).
+        min_confidence: ``mode="auto"`` replaces the mirror by the fallback below this (the
+            flag's threshold by default; 0: never).
+        fallback: What replaces the mirror (:mod:`symjax.completion.fallback`): ``"support"``,
+            the mirror across the near-best plane of the search that the view supports best
+            (kept as the mirror when none beats the found plane by ``support_gain``), or
+            ``"hull"``, the hull of the visible points and their footprint on the table.
+        support_vote_ratio: Near-best planes: a vote of Eq. 3 within this factor of the best.
+        support_gain: The least support by which a near-best plane must beat the found one.
         flag_below: A plane whose confidence is below this is flagged as likely wrong.
         shapes: The most plausible shapes of a view for grasping under shape uncertainty
             (:func:`symjax.completion.plausible_shapes`): the chosen completion, the mirror
@@ -57,10 +62,13 @@ class CompletionConfig:
     revolution_min_tilt: float = 0.3
     revolution_min_points: int = 50
     revolution_copies: int = 8
-    min_confidence: float = 0.0
+    min_confidence: float = 0.5
     flag_below: float = 0.5
     shapes: int = 3
     distinct_deg: float = 20.0
+    fallback: Literal["support", "hull"] = "support"
+    support_vote_ratio: float = 1.5
+    support_gain: float = 0.1
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -71,6 +79,12 @@ class CompletionConfig:
             raise ConfigError(
                 f"mode must be 'mirror', 'auto', 'revolution' or 'fallback', got {self.mode!r}"
             )
+        if self.fallback not in ("support", "hull"):
+            raise ConfigError(f"fallback must be 'support' or 'hull', got {self.fallback!r}")
+        if not self.support_vote_ratio >= 1.0:
+            raise ConfigError(f"support_vote_ratio must be >= 1, got {self.support_vote_ratio!r}")
+        if not 0.0 <= self.support_gain <= 1.0:
+            raise ConfigError(f"support_gain must be in [0, 1], got {self.support_gain!r}")
         if not self.rival_shift >= 0:
             raise ConfigError(f"rival_shift must be >= 0 metres, got {self.rival_shift!r}")
         for name in ("revolution_min_tilt", "min_confidence", "flag_below"):

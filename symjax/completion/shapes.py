@@ -15,8 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from symjax.completion.choice import Completion, choose_completion, footprint_hull
+from symjax.completion.choice import Completion, choose_completion
 from symjax.completion.config import CompletionConfig
+from symjax.completion.fallback import footprint_hull, grid_planes
 from symjax.errors import SymjaxError, config_or_default
 
 __all__ = ["ShapeSet", "distinct_plane", "plausible_shapes", "shape_weight"]
@@ -85,24 +86,16 @@ def distinct_plane(
         table_normal: (3,) the table's unit normal.
         min_deg: Least difference of orientation, degrees (planes: modulo 180 deg).
     """
-    votes = np.asarray(result.votes, np.float64)  # (starts, angles, shifts)
-    angles = np.asarray(result.angles, np.float64)  # (starts, angles)
-    shifts = np.asarray(result.shifts, np.float64)
+    normals, offsets, votes = grid_planes(result, table_normal)
     found = np.asarray(result.normal, np.float64)
-    # The grid's frame (symjax.symmetry.hypotheses): s = m0 x n, so m0 = n x s, side = n x m0.
-    n = np.asarray(table_normal, np.float64)
-    m0 = np.cross(n, np.asarray(result.initial_axis, np.float64))
-    side = np.cross(n, m0)
-    normals = np.cos(angles)[..., None] * m0 + np.sin(angles)[..., None] * side
     apart = np.degrees(np.arccos(np.clip(np.abs(normals @ found), 0.0, 1.0)))
     best = np.where(np.isfinite(votes), votes, np.inf).min(axis=2)
     best = np.where(apart >= min_deg, best, np.inf)
     if not np.isfinite(best).any():
         return None
     i, j = np.unravel_index(int(np.argmin(best)), best.shape)
-    shift = float(shifts[int(np.argmin(votes[i, j]))])
-    m = normals[i, j]
-    return m, float(m @ np.asarray(result.centroid, np.float64) + shift), float(best[i, j])
+    k = int(np.argmin(votes[i, j]))
+    return normals[i, j], float(offsets[i, j, k]), float(best[i, j])
 
 
 def _members(result: Any, obs: Any, cfg: Any) -> tuple[list, list]:
@@ -112,7 +105,7 @@ def _members(result: Any, obs: Any, cfg: Any) -> tuple[list, list]:
     from symjax.symmetry import mirror_across
 
     cc = config_or_default(cfg.completion, CompletionConfig)
-    main = choose_completion(result, obs, cc, cfg.normals)
+    main = choose_completion(result, obs, cc, cfg.normals, cfg.symmetry)
     w = shape_weight(main, cc) if cc.shapes > 1 else 1.0
     shapes = [[main.kind, main.reason, w, main.mesh]]
     oriented = [] if main.mesh is not None else [(0, main.oriented)]
@@ -128,7 +121,7 @@ def _members(result: Any, obs: Any, cfg: Any) -> tuple[list, list]:
                              oriented_completion(r, obs.camera, cfg.normals)])  # fmt: skip
             except SymjaxError:
                 pass
-    if len(rest) < cc.shapes - 1 and main.kind != "fallback":
+    if len(rest) < cc.shapes - 1 and main.mesh is None:  # the hull unless it is the main
         try:
             rest.append(["fallback", "footprint hull of the visible points",
                          footprint_hull(main.visible, obs.table)])  # fmt: skip

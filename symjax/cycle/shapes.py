@@ -51,7 +51,7 @@ def completed_meshes(observations: list, tables: list, cfg: Any, search: Any = N
         if out[i] is not None:
             continue
         try:
-            c = choose_completion(res[i], obs, cfg.completion, cfg.normals)
+            c = choose_completion(res[i], obs, cfg.completion, cfg.normals, cfg.symmetry)
         except SymjaxError as e:
             out[i] = e
             continue

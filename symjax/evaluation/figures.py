@@ -252,7 +252,9 @@ def gallery(views: Sequence, captions: Sequence[str], config, path: str | Path) 
     added: list = []  # the points the completion added (mirrored or revolved)
     for i, v in enumerate(views):
         try:
-            c = choose_completion(res[i], v.observation, config.completion, config.normals)
+            c = choose_completion(
+                res[i], v.observation, config.completion, config.normals, config.symmetry
+            )
             ops.append(c.oriented if c.mesh is None else c.mesh)
             added.append(
                 (c.kind, np.zeros((0, 3)) if c.oriented is None else c.oriented.points[

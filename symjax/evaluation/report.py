@@ -274,8 +274,10 @@ def _completion_lines(c: dict[str, Any]) -> list[str]:
         "## Completion (beyond the paper)",
         "",
         f"Views by completion: {kinds or 'none'}. Revolution: the visible surface is a surface"
-        " of revolution about the table normal; mirror: the plane of Eq. 4; fallback: the hull of"
-        " the visible points and their table footprint.",
+        " of revolution about the table normal; mirror: the plane of Eq. 4; fallback (a plane"
+        " confidence below the threshold): the mirror across the near-best plane of the search"
+        " that the view supports best, or the hull of the visible points and their table"
+        " footprint (see each view's reason).",
         "",
         "Plane confidence (the plane's support, the paper's case i, its best rival's and the"
         f" axis residual of the visible surface): ROC AUC"

@@ -135,7 +135,11 @@ def start_batch(
             t1 = time.perf_counter()
             try:
                 c = choose_completion(
-                    results[i], views[i].observation, config.completion, config.normals
+                    results[i],
+                    views[i].observation,
+                    config.completion,
+                    config.normals,
+                    config.symmetry,
                 )
                 chosen[i] = c
                 ops[i] = c.oriented if c.mesh is None else c.mesh
