@@ -97,9 +97,7 @@ def supported_plane(
     best = float(votes.min())
     if not np.isfinite(best):
         return None
-    near = np.argwhere(votes <= best * config.support_vote_ratio)
-    if best <= 0:  # a perfect vote: its ties only
-        near = np.argwhere(votes <= best)
+    near = np.argwhere(votes <= max(best * config.support_vote_ratio, best))
     found = None
     for i, j, k in near:
         s = index.support(normals[i, j], float(offsets[i, j, k]), config.support_eps)
