@@ -274,6 +274,9 @@ def test_supported_plane_is_the_best_supported_of_the_near_best_votes():
         < got[2]
     )
     assert supported_plane(grid, UP, index, got[2] - 0.05, cfg) is None
+    # A search that scored no plane has none to offer.
+    unscored = _Grid(np.full_like(votes, np.inf), angles, shifts)
+    assert supported_plane(unscored, UP, index, 0.0, cfg) is None
 
 
 def test_footprint_hull_contains_the_points_and_their_shadow():
