@@ -24,6 +24,7 @@ __all__ = [
     "axis_rotation",
     "backproject",
     "bucket",
+    "closest_point_on_triangle",
     "euler_zyx",
     "is_closed",
     "mesh_arrays",
@@ -319,3 +320,67 @@ def is_closed(faces: np.ndarray, n_vertices: int) -> bool:
         and np.all(second & 1 == 1)
         and np.all(first[1:] >> 1 > second[:-1] >> 1)
     )
+
+
+def closest_point_on_triangle(p: ArrayLike, tri: ArrayLike) -> np.ndarray:
+    """Closest point of each triangle to its point (Ericson, Real-Time Collision Detection,
+    5.1.5: the Voronoi region of the point decides vertex, edge or face), numpy float64.
+
+    Degenerate triangles (zero area) give a closest point of their edges.
+
+    Args:
+        p: (N, 3) points.
+        tri: (N, 3, 3) triangles, vertex by row.
+
+    Returns:
+        (N, 3) closest points.
+    """
+    p = np.asarray(p, np.float64)
+    a, b, c = (np.asarray(tri, np.float64)[:, k] for k in range(3))
+    ab, ac = b - a, c - a
+
+    def dot(u, v):
+        return np.einsum("ij,ij->i", u, v)
+
+    def ratio(num, den):
+        return np.clip(num / np.where(den == 0.0, 1.0, den), 0.0, 1.0)[:, None]
+
+    d1, d2 = dot(ab, p - a), dot(ac, p - a)
+    d3, d4 = dot(ab, p - b), dot(ac, p - b)
+    d5, d6 = dot(ab, p - c), dot(ac, p - c)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    den = va + vb + vc
+    inside = a + ab * ratio(vb, den) + ac * ratio(vc, den)
+    # np.select takes the first true region, in Ericson's order.
+    regions = [
+        (d1 <= 0) & (d2 <= 0),
+        (d3 >= 0) & (d4 <= d3),
+        (vc <= 0) & (d1 >= 0) & (d3 <= 0),
+        (d6 >= 0) & (d5 <= d6),
+        (vb <= 0) & (d2 >= 0) & (d6 <= 0),
+        (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0),
+        den == 0.0,  # degenerate with p beside it: the closest of its three edges
+    ]
+    points = [
+        a,
+        b,
+        a + ab * ratio(d1, d1 - d3),
+        c,
+        a + ac * ratio(d2, d2 - d6),
+        b + (c - b) * ratio(d4 - d3, (d4 - d3) + (d5 - d6)),
+        _closest_on_edges(p, a, b, c),
+    ]
+    return np.select([r[:, None] for r in regions], points, inside)
+
+
+def _closest_on_edges(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    best, best_d = a, np.full(len(p), np.inf)
+    for u, v in ((a, b), (b, c), (c, a)):
+        e = v - u
+        den = np.einsum("ij,ij->i", e, e)
+        t = np.clip(np.einsum("ij,ij->i", p - u, e) / np.where(den == 0, 1, den), 0, 1)
+        q = u + e * t[:, None]
+        d = np.einsum("ij,ij->i", p - q, p - q)
+        best = np.where((d < best_d)[:, None], q, best)
+        best_d = np.minimum(d, best_d)
+    return best

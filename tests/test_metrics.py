@@ -173,3 +173,29 @@ def test_surface_distance_is_exact_on_uneven_triangles():
                                          np.tile(pts, (len(tri), 1)))  # fmt: skip
     brute = np.linalg.norm(cp - np.tile(pts, (len(tri), 1)), axis=1).reshape(len(tri), -1).min(0)
     np.testing.assert_allclose(surface_distance(pts, mesh), brute, atol=2e-7)
+
+
+@pytest.mark.parametrize("kind", ["_FcpwTree", "_IglTree"])
+def test_both_closest_face_trees_give_the_exact_distance(kind, monkeypatch):
+    """FCPW (float32 tree) and libigl (the fallback where FCPW has no wheel) agree with the
+    brute-force minimum over all triangles, and the face returned is at that distance."""
+    from symjax.metrics import deviation
+
+    pytest.importorskip("fcpw" if kind == "_FcpwTree" else "igl")
+    monkeypatch.setattr(deviation, "_tree_kind", lambda: getattr(deviation, kind))
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
+    mesh.vertices += np.random.default_rng(0).normal(0, 0.002, mesh.vertices.shape)
+    mesh.apply_translation([0.6, -0.3, 0.8])  # float32 needs the vertex-mean shift here
+    pts = mesh.centroid + np.random.default_rng(1).normal(0, 0.05, size=(300, 3))
+    tri = mesh.triangles
+    cp = trimesh.triangles.closest_point(np.repeat(tri, len(pts), axis=0),
+                                         np.tile(pts, (len(tri), 1)))  # fmt: skip
+    brute = np.linalg.norm(cp - np.tile(pts, (len(tri), 1)), axis=1).reshape(len(tri), -1).min(0)
+    d, face = surface_distance(pts, mesh, return_faces=True)
+    assert type(mesh.__dict__["_symjax_bvh"]).__name__ == kind
+    np.testing.assert_allclose(d, brute, atol=1e-8)
+    from symjax.geometry import closest_point_on_triangle
+
+    np.testing.assert_allclose(
+        np.linalg.norm(closest_point_on_triangle(pts, tri[face]) - pts, axis=1), d, atol=0
+    )
