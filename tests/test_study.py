@@ -42,6 +42,10 @@ def test_one_view_planned_on_each_mesh_and_scored_on_the_truth(cfg):
     assert all(0.0 <= p <= 1.0 for p in rows["K"]["predicted"])
     assert rows["K"]["predicted"] == sorted(rows["K"]["predicted"], reverse=True)
     assert rows["K"]["shapes"]["kinds"][0] in ("mirror", "revolution")
+    # Each shape's rollouts are kept: their weighted mean is the prediction.
+    ss = np.asarray(rows["K"]["shapes"]["success"], float)
+    assert ss.shape == (len(shapes), cfg.top)
+    np.testing.assert_allclose(shapes.weights @ ss, rows["K"]["predicted"], atol=1e-4)
     # Planned on the truth and scored on the truth: the same rollouts, bit for bit.
     assert rows["T"]["truth"] == rows["T"]["predicted"]
     assert all(rows["T"]["truth"])  # the top of a plan on the true mug succeeds

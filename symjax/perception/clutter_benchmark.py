@@ -25,7 +25,7 @@ MIN_VISIBLE_PX = 1500  # clutter objects must show this much of themselves to be
 HIDDEN_PX = 300  # scan-scene objects showing less are hidden (a 26-pixel corner is not findable)
 
 
-def benchmark_scenes(n_clutter: int = 10) -> list[tuple[str, SyntheticScene]]:
+def benchmark_scenes(n_clutter: int = 30) -> list[tuple[str, SyntheticScene]]:
     """``(group, scene)``: 12 side-by-side pairs, 8 one-behind-the-other, ``n_clutter`` clutter
     scenes of 5-8 objects (the first seeds with >= 3 contacts and every object in view)."""
     out = [("side_by_side", clutter_scene(k, s, "side_by_side")) for k in PAIRS for s in range(4)]

@@ -33,7 +33,8 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
         {"planned", "predicted", "truth", "error"}}}}``: per planning mesh the number of
         candidates planned, and per top grasp its predicted success (on its own mesh; for
         ``K`` the weighted mean over the shapes) and its success on the truth; ``K`` also has
-        ``"shapes"`` (kinds and weights) and ``"seconds"`` (its extra planning time).
+        ``"shapes"`` (kinds, weights and each shape's success of the top grasps) and ``"seconds"``
+        (its extra planning time).
     """
     from symjax import grasp, hands
     from symjax.decompose import decompose
@@ -98,9 +99,13 @@ def study_view(view: Any, meshes: dict[str, Any], cfg: StudyConfig) -> dict[str,
             rows[k]["seconds"] = round(time.perf_counter() - t1 + dec_s[k], 3)
             rows[k]["decompose_seconds"] = round(dec_s[k], 3)
             if k == "K":
+                # Each shape's rollout of the top grasps, so other criteria can be scored later.
+                shape_success = np.zeros((len(meshes[k]), 0)) if gp.shape_success is None else (
+                    np.asarray(gp.shape_success, float)[:, :n])  # fmt: skip
                 rows[k]["shapes"] = {
                     "kinds": list(meshes[k].kinds),
                     "weights": [round(float(w), 4) for w in meshes[k].weights],
+                    "success": [[int(x) for x in row] for row in shape_success],
                 }
             tops.append((k, gp.candidates.take(np.arange(n))))
         if tops:
