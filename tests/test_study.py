@@ -74,6 +74,35 @@ def test_tables_count_every_top_grasp():
     assert h["C"]["predicted"] == 100.0
     assert s["by_object"]["sdh"]["b"] == {"T": 100.0, "C": 40.0, "P": 0.0}
     assert s["by_orientation"]["sdh"]["90.0"]["C"] == 40.0
+    # Brier: C predicts 1 for 10 grasps of which 3 fail on the truth.
+    assert h["C"]["brier"] == pytest.approx(0.3) and h["T"]["brier"] == 0.0
+    assert "P" in h["overconfidence_ci95"] and "T" not in h["overconfidence_ci95"]
+
+
+def _rows(pred, truth):
+    return [{"predicted": list(p), "truth": list(t)} for p, t in zip(pred, truth, strict=True)]
+
+
+def test_prediction_intervals_resample_views():
+    from symjax.study.summary import prediction_intervals
+
+    rng = np.random.default_rng(3)
+    truth = rng.random((40, 5)) < 0.8
+    exact = _rows(truth.astype(float), truth)  # predicts every grasp right
+    sure = _rows(np.ones((40, 5)), truth)  # over-confident wherever a grasp fails
+    out = prediction_intervals({"C": sure, "K": exact}, resamples=500, seed=1)
+    gap = 100 * (1 - truth.mean())
+    assert out["K"] == [0.0, 0.0]
+    assert out["C"][0] < gap < out["C"][1]
+    assert out["K_vs_C"]["abs_gap_change"] == pytest.approx(-gap, abs=0.01)
+    assert out["K_vs_C"]["share_K_closer"] == 1.0 and out["K_vs_C"]["interval"][1] < 0
+    # The same predictions: no change, and K is never the closer one.
+    same = prediction_intervals({"C": sure, "K": sure}, resamples=200)["K_vs_C"]
+    assert same == {"abs_gap_change": 0.0, "interval": [0.0, 0.0], "share_K_closer": 0.0}
+    # Reproducible: the same seed resamples the same views.
+    assert prediction_intervals({"C": sure}, resamples=300, seed=5) == prediction_intervals(
+        {"C": sure}, resamples=300, seed=5
+    )
 
 
 def test_study_resumes_from_its_files(cfg, tmp_path, monkeypatch):
@@ -107,5 +136,7 @@ def test_study_resumes_from_its_files(cfg, tmp_path, monkeypatch):
     assert len(calls) == 5
     s = write_report(first, tmp_path, top=1)
     assert (tmp_path / "study.png").stat().st_size > 1000
-    assert "| sdh |" in (tmp_path / "report.md").read_text()
+    report = (tmp_path / "report.md").read_text()
+    assert "| sdh |" in report and "## The planner's prediction of success" in report
+    assert "| sdh | C |" in report
     assert np.isfinite(s["hands"]["sdh"]["T-C"])

@@ -12,7 +12,7 @@ import numpy as np
 from symjax._atomic import atomic_write_bytes, atomic_write_json, atomic_write_text
 from symjax.study.config import PLANNING_MESHES
 
-__all__ = ["summarise", "write_report"]
+__all__ = ["prediction_intervals", "summarise", "write_report"]
 
 
 def _rates(rows: list[dict], top: int) -> dict[str, Any]:
@@ -30,8 +30,57 @@ def _rates(rows: list[dict], top: int) -> dict[str, Any]:
     }
     # How far the planner's own prediction is from the truth, on the grasps it chose.
     out["overconfidence"] = round(out["predicted"] - out["success_of_planned"], 2)
+    pairs = [(p, float(t)) for r in rows for p, t in zip(r["predicted"], r["truth"], strict=True)]
+    if pairs:
+        # The signed gap lets over- and under-confident views cancel; the Brier score does not.
+        out["brier"] = round(float(np.mean([(p - t) ** 2 for p, t in pairs])), 4)
     if secs:
         out["seconds_median"] = round(float(np.median(secs)), 3)
+    return out
+
+
+def _view_sums(rows: list[dict]) -> np.ndarray:
+    """(V, 3) per view: sum of predicted success, sum of success on the truth, grasps."""
+    return np.array([[sum(r["predicted"]), sum(r["truth"]), len(r["truth"])] for r in rows], float)
+
+
+def _gap(sums: np.ndarray) -> np.ndarray:
+    """Over-confidence (percentage points) of view sums (..., V, 3)."""
+    s = sums.sum(axis=-2)
+    return 100.0 * (s[..., 0] - s[..., 1]) / np.maximum(s[..., 2], 1.0)
+
+
+def prediction_intervals(per_mesh: dict[str, list[dict]], resamples: int = 2000,
+                         seed: int = 0) -> dict[str, Any]:  # fmt: skip
+    """95 % bootstrap intervals (views resampled with replacement) of each mesh's
+    over-confidence, and for ``K`` against ``C`` of the change of its size.
+
+    Args:
+        per_mesh: ``{mesh: [row of one view]}``, the rows of the same views in the same order.
+        resamples: Bootstrap resamples.
+        seed: Seed of the resampling (the report is reproducible).
+
+    Returns:
+        ``{mesh: [low, high]}`` and, with ``C`` and ``K``, ``"K_vs_C"``: ``{"abs_gap_change"
+        (|K| - |C|, points), "interval", "share_K_closer"}`` (the share of resamples in which
+        K's prediction is the closer one).
+    """
+    keys = [k for k, rows in per_mesh.items() if rows]
+    if not keys:
+        return {}
+    n = len(per_mesh[keys[0]])
+    idx = np.random.default_rng(seed).integers(0, n, (resamples, n))
+    boot = {k: _gap(_view_sums(per_mesh[k])[idx]) for k in keys}
+    out: dict[str, Any] = {k: [round(float(x), 2) for x in np.percentile(b, [2.5, 97.5])]
+                           for k, b in boot.items()}  # fmt: skip
+    if "C" in boot and "K" in boot:
+        full = {k: float(_gap(_view_sums(per_mesh[k]))) for k in ("C", "K")}
+        d = np.abs(boot["K"]) - np.abs(boot["C"])
+        out["K_vs_C"] = {
+            "abs_gap_change": round(abs(full["K"]) - abs(full["C"]), 2),
+            "interval": [round(float(x), 2) for x in np.percentile(d, [2.5, 97.5])],
+            "share_K_closer": round(float(np.mean(d < 0)), 3),
+        }
     return out
 
 
@@ -63,6 +112,9 @@ def summarise(records: list[dict], top: int) -> dict[str, Any]:
                      and "seconds" in r["hands"][h]["C"]]  # fmt: skip
             if extra:
                 per["K_extra_seconds_median"] = round(float(np.median(extra)), 3)
+        per["overconfidence_ci95"] = prediction_intervals(
+            {k: [r["hands"][h][k] for r in good if h in r["hands"]] for k in keys if k != "T"}
+        )
         out["hands"][h] = per
         for group, field in (("by_object", "object"), ("by_orientation", "orientation_deg")):
             groups = sorted({str(r[field]) for r in good})
@@ -110,6 +162,32 @@ def _figure(summary: dict, path: Path) -> None:
     atomic_write_bytes(path, buf.getvalue())
 
 
+def _prediction_lines(s: dict) -> list[str]:
+    """The report's section on the planner's prediction of its own success."""
+    lines = ["## The planner's prediction of success", "",
+             "| hand | mesh | predicted | held on the truth | over-confidence [95 % interval] |"
+             " Brier score |", "|---|---|---|---|---|---|"]  # fmt: skip
+    for h, r in s["hands"].items():
+        ci = r.get("overconfidence_ci95", {})
+        for k in (k for k in PLANNING_MESHES if k != "T" and k in r):
+            lo, hi = ci.get(k, ["-", "-"])
+            m = r[k]
+            lines.append(
+                f"| {h} | {k} | {m['predicted']} | {m['success_of_planned']} |"
+                f" {m['overconfidence']} [{lo}, {hi}] | {m.get('brier', '-')} |"
+            )
+    lines += ["", "Over-confidence: predicted minus held, points; its interval resamples the"
+              " views (bootstrap). The Brier score is the mean squared difference per grasp, so"
+              " over- and under-confident views do not cancel in it."]  # fmt: skip
+    for h, r in s["hands"].items():
+        kc = r.get("overconfidence_ci95", {}).get("K_vs_C")
+        if kc:
+            lines.append(f"{h}: |over-confidence| of K minus C {kc['abs_gap_change']} points"
+                         f" [{kc['interval'][0]}, {kc['interval'][1]}]; K closer in"
+                         f" {100 * kc['share_K_closer']:.0f} % of the resamples.")  # fmt: skip
+    return lines + [""]
+
+
 def write_report(records: list[dict], out_dir: Any, top: int, command: str = "") -> dict:
     """Writes ``results.json``, ``study.png`` and ``report.md``; returns the summary."""
     out = Path(out_dir)
@@ -135,6 +213,7 @@ def write_report(records: list[dict], out_dir: Any, top: int, command: str = "")
               " completion's plausible shapes, each grasp ranked by its success across them"
               " (predicted: the weighted mean over the shapes).", "",
               "![study](study.png)", ""]  # fmt: skip
+    lines += _prediction_lines(s)
     for group in ("by_object", "by_orientation"):
         lines += [f"## Success on the truth {group.replace('_', ' ')}", ""]
         for h, table in s[group].items():
