@@ -7,21 +7,25 @@
   widened by the largest triangle); ``max_abs_diff_m`` is the largest difference of the
   distances. The closest-face tree (FCPW's BVH; libigl's AABB tree where FCPW has no wheel) is
   built inside the timed call (a new mesh each time).
-* ``search_batch``: the default search over the first 32 benchmark views in batches of 16, per
-  view after a warm-up pass, against the same views searched one by one (the reference).
+* ``search_batch``: the default search over the first ``--search-views`` benchmark views (32) in
+  batches of the preset's ``eval_batch_size`` (16; ``--config gpu``: the 128 views in one batch),
+  per view after a warm-up pass, against the same views searched one by one (the reference).
 * ``poisson7_view``: a Poisson depth-7 mesh per view after compilation (solve, marching cubes,
-  table cut; views side by side in threads), on the completed clouds of the first 16 views.
+  table cut; views side by side in threads, or vmapped chunks with ``--config gpu``), on the
+  completed clouds of the first 16 views.
 * ``first_view``: a new process (``--probe first``) searches and meshes its first view; with an
   empty persistent compilation cache (cold) and again with the cache it left (warm: JAX's
   compiled programs and symjax's exported kernels, ``symjax._kernel_store``).
 * ``compile_counts``: a new process searches and meshes views of 1,500 to 200,000 points and
   counts the compilations of each kernel against the number of point buckets.
-* ``eval_run``: ``symjax eval`` over the 128 views in a new process, cold (empty compilation
-  cache) and warm, wall time and stage totals (``--eval``).
+* ``eval_run``: ``symjax eval --config <preset>`` over the 128 views in a new process, cold (empty
+  compilation cache) and warm, wall time and stage totals (``--eval``).
 * ``eval_stages`` (with ``--before DIR``): an earlier ``symjax eval`` run's stage totals against
   the warm run's, their ratio, and whether the report prints the same results.
 
-Usage: ``python scripts/bench_eval.py [--eval] [--before out/eval_before]``
+Usage: ``python scripts/bench_eval.py [--eval] [--before out/eval_before]``; on a GPU machine
+``python scripts/bench_eval.py --config gpu --search-views 128 --eval --no-compile-counts``
+(``scripts/bench_gpu.py`` runs it).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from symjax.cli.common import PresetArgs, parse  # noqa: E402
+from symjax.execution import ExecutionConfig  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -55,6 +60,15 @@ class Args(PresetArgs):
     """Internal: ``first`` or ``compiles``, run in a new process by the cases above."""
     repeats: int = 5
     """Timed calls per case (the best is reported)."""
+    search_views: int = 32
+    """Benchmark views of the ``search_batch`` case."""
+    keep_eval: str | None = None
+    """A folder to copy the warm ``symjax eval`` run's ``results.json`` and ``report.md`` to
+    (as ``eval_results.json``, ``eval_report.md``), to compare with a run on another machine."""
+    compile_counts: bool = True
+    """Run the ``compile_counts`` probe (eight point buckets compiled in a new process)."""
+    execution: ExecutionConfig = dataclasses.field(default_factory=ExecutionConfig)
+    """Batching of the search, Poisson and eval cases (the preset's)."""
     out: str = str(ROOT / "bench" / "results" / "eval.json")
     """Where the JSON lines go."""
 
@@ -108,7 +122,10 @@ def main(argv=None) -> int:
     if args.probe:
         _run_probe(args.probe)
         return 0
-    meta = {"machine": platform.machine(), "cpus": os.cpu_count()}
+    import jax
+
+    meta = {"machine": platform.machine(), "cpus": os.cpu_count(), "preset": args.config,
+            "jax_backend": jax.default_backend(), "device": str(jax.devices()[0])}  # fmt: skip
     emit = JsonRows(args.out, meta).emit
 
     for name, ref_mesh, mesh in _meshes():
@@ -133,36 +150,47 @@ def main(argv=None) -> int:
             "implementation": type(fresh.__dict__["_symjax_bvh"]).__name__,
             "load_avg": load0,
         })  # fmt: skip
-    for row in _bench_search():
+    for row in _bench_search(args.search_views, args.execution):
         emit(row)
-    emit(_bench_poisson())
+    emit(_bench_poisson(args.execution))
     emit(_bench_first_view())
-    emit(_probe("compiles", os.environ.get("JAX_COMPILATION_CACHE_DIR")))
+    if args.compile_counts:
+        emit(_probe("compiles", os.environ.get("JAX_COMPILATION_CACHE_DIR")))
     after = None
     if args.eval:
-        for row in _bench_eval_runs():
+        for row in _bench_eval_runs(args.config):
             after = row.pop("_folder")
             emit(row)
+        if args.keep_eval:
+            import shutil
+
+            Path(args.keep_eval).mkdir(parents=True, exist_ok=True)
+            for name in ("results.json", "report.md"):
+                shutil.copy(Path(after) / name, Path(args.keep_eval) / f"eval_{name}")
     if args.before and after:
         emit(_compare(args.before, after))
     return 0
 
 
-def _bench_search() -> list[dict]:
+def _bench_search(n_views: int, ex: ExecutionConfig) -> list[dict]:
     from symjax.datasets import benchmark
     from symjax.symmetry import SymmetryConfig, search, search_batch
 
-    obs = [v.observation for v in benchmark(None)][:32]
+    obs = [v.observation for v in benchmark(None)][:n_views]
     cfg = SymmetryConfig()
+    size = min(ex.eval_batch_size, len(obs))
+    starts = range(0, len(obs), size)
     load0 = [round(x, 2) for x in os.getloadavg()]
-    for s in (0, 16):
-        search_batch(obs[s : s + 16], cfg)  # compile
+    t0 = time.perf_counter()
+    for s in starts:
+        search_batch(obs[s : s + size], cfg, ex)  # compile
+    first = time.perf_counter() - t0
     for o in obs:
         search(o, cfg)
     batch, single = [], []
     for _ in range(3):
         t0 = time.perf_counter()
-        res = [search_batch(obs[s : s + 16], cfg) for s in (0, 16)]
+        res = [search_batch(obs[s : s + size], cfg, ex) for s in starts]
         batch.append((time.perf_counter() - t0) / len(obs))
         t0 = time.perf_counter()
         one = [np.asarray(search(o, cfg).normal) for o in obs]
@@ -171,14 +199,16 @@ def _bench_search() -> list[dict]:
     n = [len(o.points) for o in obs]
     return [{
         "case": "search_batch", "views": len(obs), "points": [min(n), max(n)], "hypotheses": 350,
-        "run_s_per_view": round(min(batch), 4), "reference_s_per_view_one_by_one":
-        round(min(single), 4), "speedup": round(min(single) / min(batch), 2),
+        "batch": size, "chunk_views": ex.symmetry_chunk_views,
+        "first_pass_s": round(first, 2), "run_s_per_view": round(min(batch), 4),
+        "reference_s_per_view_one_by_one": round(min(single), 4),
+        "speedup": round(min(single) / min(batch), 2),
         "max_normal_diff_to_one_by_one": float(np.abs(planes - np.stack(one)).max()),
         "load_avg": load0,
     }]  # fmt: skip
 
 
-def _bench_poisson() -> dict:
+def _bench_poisson(ex: ExecutionConfig) -> dict:
     import dataclasses as dc
 
     from symjax.datasets import benchmark
@@ -187,18 +217,18 @@ def _bench_poisson() -> dict:
 
     bench = benchmark(None)
     views = [bench[i] for i in range(16)]
-    res = search_batch([v.observation for v in views])
+    res = search_batch([v.observation for v in views], execution=ex)
     ops = [oriented_completion(res[i], v.camera) for i, v in enumerate(views)]
     tables = [v.observation.table for v in views]
     load0 = [round(x, 2) for x in os.getloadavg()]
     out = {}
     for depth in (5, 7):
         cfg = dc.replace(PoissonConfig(), depth=depth)
-        poisson_reconstruct_batch(ops, cfg, tables=tables)  # compile
+        poisson_reconstruct_batch(ops, cfg, ex, tables=tables)  # compile
         t = []
         for _ in range(3):
             t0 = time.perf_counter()
-            poisson_reconstruct_batch(ops, cfg, tables=tables)
+            poisson_reconstruct_batch(ops, cfg, ex, tables=tables)
             t.append((time.perf_counter() - t0) / len(ops))
         out[depth] = min(t)
     return {
@@ -206,7 +236,9 @@ def _bench_poisson() -> dict:
         "points": [min(len(o.points) for o in ops), max(len(o.points) for o in ops)],
         "run_s_per_view": round(out[7], 4), "target_s": 0.1,
         "reference_depth5_s_per_view": round(out[5], 4),
-        "what": "one view a call, in threads: splat + FFT solve + marching cubes + table cut",
+        "chunk_views": ex.poisson_chunk_views,
+        "what": "splat + FFT solve + marching cubes + table cut (chunk 1: one view a call, in"
+                " threads; more: vmapped)",
         "load_avg": load0,
     }  # fmt: skip
 
@@ -300,7 +332,7 @@ def _resized(obs, points):
     return Observation.create(points, obs.camera, obs.table, obs.mask, obs.depth)
 
 
-def _bench_eval_runs() -> list[dict]:
+def _bench_eval_runs(preset: str) -> list[dict]:
     """``symjax eval`` cold and warm in new processes (stage totals from results.json)."""
     import subprocess
     import tempfile
@@ -315,12 +347,12 @@ def _bench_eval_runs() -> list[dict]:
         load0 = [round(x, 2) for x in os.getloadavg()]
         t0 = time.perf_counter()
         cmd = [sys.executable, str(ROOT / "scripts" / "eval_dataset.py"), "--out-dir", str(out),
-               "--execution.no-progress"]  # fmt: skip
+               "--config", preset, "--execution.no-progress"]  # fmt: skip
         subprocess.run(cmd, env=env, check=True, capture_output=True)
         wall = time.perf_counter() - t0
         d = json.loads((out / "results.json").read_text())
         rows.append({
-            "case": "eval_run", "cache": tag, "views": d["run"]["n_views"],
+            "case": "eval_run", "cache": tag, "preset": preset, "views": d["run"]["n_views"],
             "wall_s": round(wall, 1), "target_s": 60.0, "run_s": round(d["run"]["run_s"], 1),
             "figures_s": round(d["run"]["figures_s"], 1),
             "stages_s": {k: round(v, 2) for k, v in d["summary"]["timings_s"].items()},

@@ -45,6 +45,16 @@ def test_paper_preset_is_the_papers_search():
     assert dataclasses.replace(d.evaluation, **paper_parts) == p.evaluation
 
 
+def test_gpu_preset_changes_only_how_work_is_split():
+    g, d = configs.load("gpu"), configs.load("default")
+    for section in configs.SECTIONS:
+        if section != "execution":
+            assert getattr(g, section) == getattr(d, section), section
+    # The same resume keys and caches: a GPU run resumes a CPU run's folder and vice versa.
+    assert g.evaluation.key() == d.evaluation.key()
+    assert g.execution.eval_batch_size == g.execution.symmetry_chunk_views == 128
+
+
 def test_platform_presets():
     kth, uji = configs.load("kth"), configs.load("uji")
     assert (kth.platform.robot, kth.platform.hand, kth.platform.generator) == ("kth", "sdh", "kth")

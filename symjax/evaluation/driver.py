@@ -132,9 +132,11 @@ def evaluate(
             done[rec.view] = rec
         bar.update(len(records))
 
-    # The metrics of a batch are measured in a worker while the next batch is searched and
-    # meshed (a run of one batch gains nothing from a worker it would have to start).
-    workers = ex.metric_workers if len(todo) > ex.eval_batch_size else 0
+    # The metrics of a batch are measured in workers while the next batch is searched and
+    # meshed. A run of one batch gains nothing from one worker it would have to start, but
+    # several measure its meshes side by side (a many-core GPU machine's single batch).
+    several = len(todo) > ex.eval_batch_size or (ex.metric_workers > 1 and len(todo) > 1)
+    workers = ex.metric_workers if several else 0
     try:
         with MetricRunner(workers) as runner:
             pending = None
