@@ -399,6 +399,8 @@ CASES = [
     ("segmentation-crease-step", lambda d: perception.SegmentationConfig(crease_max_step=0.0), ConfigError, ["crease_max_step", "> 0"]),
     ("segmentation-claim-dropouts", lambda d: perception.SegmentationConfig(claim_dropouts_px=-1), ConfigError, ["claim_dropouts_px", ">= 0", "-1"]),
     ("segmentation-claim-dropouts-type", lambda d: perception.SegmentationConfig(claim_dropouts_px=2.5), ConfigError, ["claim_dropouts_px", "2.5"]),
+    ("segmentation-split-bridges", lambda d: perception.SegmentationConfig(split_bridges_px=-2), ConfigError, ["split_bridges_px", ">= 0", "-2"]),
+    ("segmentation-split-bridges-type", lambda d: perception.SegmentationConfig(split_bridges_px=1.5), ConfigError, ["split_bridges_px", "1.5"]),
     ("segmentation-colour-weight", lambda d: perception.SegmentationConfig(colour_weight=-1.0), ConfigError, ["colour_weight", ">= 0", "-1.0"]),
     ("segmentation-colour-concavity", lambda d: perception.SegmentationConfig(colour_concavity=float("nan")), ConfigError, ["colour_concavity", "finite"]),
     ("segment-rgb-shape", lambda d: perception.segment(np.ones((CAM.height, CAM.width)), CAM, rgb=np.zeros((4, 4, 3), np.uint8)), ShapeError, ["rgb", "(H, W, 3)", "(4, 4, 3)"]),

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from symjax.perception.bridges import grow_cores, rejoin_smooth, thin_bridges
 from symjax.perception.config import SegmentationConfig
 
 __all__ = ["cloud_clusters", "grid_outliers", "image_clusters", "statistical_outliers"]
@@ -39,6 +40,8 @@ def image_clusters(
     config: SegmentationConfig,
     crease: np.ndarray | None = None,
     colour: np.ndarray | None = None,
+    colour_crease: np.ndarray | None = None,
+    concavity: np.ndarray | None = None,
 ) -> np.ndarray:
     """Labels object pixels by connectivity on the image grid.
 
@@ -59,6 +62,12 @@ def image_clusters(
         crease: (H, W) bool crease pixels to cut too; None = depth steps only.
         colour: (H, W, 3) CIELAB image: cut pixels prefer the neighbour of their colour
             (``colour_weight``); None = depth alone.
+        colour_crease: (H, W) bool crease pixels found in the colour image
+            (:func:`symjax.perception.creases.colour_creases`), cut as ``crease`` is, after the
+            thin bridges are found (``split_bridges_px``).
+        concavity: (H, W) the concavity that ``crease`` thresholds
+            (:func:`symjax.perception.creases.crease_concavity`): parts split at a bridge are
+            joined back unless they meet across a crease or a step; None = steps alone.
 
     Returns:
         int32 (H, W) labels: 0..K-1 objects, ordered by size (largest first); -1 elsewhere.
@@ -72,7 +81,14 @@ def image_clusters(
         far_edge |= (nb > 0) & (depth - nb > thr)
     if crease is not None:
         far_edge |= crease
-    core = candidate & ~far_edge
+    rim = component = None
+    if config.split_bridges_px > 0:
+        # On the depth cues alone: colour edges leave thin strips inside objects that erosion
+        # would take for bridges.
+        rim, component = thin_bridges(candidate & ~far_edge, height, config)
+    if colour_crease is not None:
+        far_edge |= colour_crease
+    core = candidate & ~far_edge if rim is None else candidate & ~far_edge & ~rim
     n, lab = cv2.connectedComponents(core.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S)
     seeds = np.bincount(lab[core & (height > config.seed_height)], minlength=n)
     seeds[0] = 0
@@ -82,6 +98,10 @@ def image_clusters(
     remap = np.full(n, -1, np.int32)
     remap[order] = np.arange(len(order), dtype=np.int32)
     labels = remap[lab]
+    if rim is not None and rim.any():
+        labels = grow_cores(labels, rim, component, colour_crease)
+        far_edge |= rim & (labels < 0)  # the rest is reattached as cut pixels are
+        far_edge &= ~(rim & (labels >= 0))
     # Reattach the cut pixels, pass by pass, to the adjacent object at the closest depth: the
     # far side of an occluding edge joins its own surface (nearer in depth than the occluder), and
     # faces seen at grazing angles, whose every pixel steps by more than the jump, grow back
@@ -132,6 +152,8 @@ def image_clusters(
             lab[idx[fr[done]]] = nl[rows, pick][done]
             alive = np.delete(alive, front[done])
     labels = lab.reshape(labels.shape[0] + 2, Wp)[1:-1, 1:-1]
+    if component is not None and component.any():
+        labels = rejoin_smooth(labels, component, depth, concavity, config, colour_crease)
     return labels
 
 

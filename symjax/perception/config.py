@@ -83,6 +83,10 @@ class SegmentationConfig:
         claim_dropouts_px: Pixels without depth within this many pixels of an object whose
             viewing ray passes through the object's column (footprint hull x height) join its
             mask, not its points (:mod:`symjax.perception.dropouts`); 0 = off.
+        split_bridges_px: A cluster that erosion by a disc of this radius (pixels) breaks into
+            two or more cores of ``min_cluster_points`` seed pixels is split there: two touching
+            objects joined through a few pixels where the crease and the depth step both missed
+            (:func:`symjax.perception.clusters.image_clusters`); 0 = off.
         seed: Random seed of the RANSAC sampling (results are deterministic).
     """
 
@@ -123,6 +127,7 @@ class SegmentationConfig:
     max_object_extent: float = 0.4
     mask_fill: str = "close"
     claim_dropouts_px: int = 0
+    split_bridges_px: int = 0
     object_holes: bool = False
     seed: int = 0
 
@@ -199,6 +204,10 @@ class SegmentationConfig:
         if self.claim_dropouts_px < 0:
             raise ConfigError(
                 f"claim_dropouts_px must be >= 0 pixels (0 = off), got {self.claim_dropouts_px}"
+            )
+        if self.split_bridges_px < 0:
+            raise ConfigError(
+                f"split_bridges_px must be >= 0 pixels (0 = off), got {self.split_bridges_px}"
             )
         if self.border_px < 0 or self.touch_px < 0:
             raise ConfigError("border_px and touch_px must be >= 0")

@@ -189,9 +189,8 @@ def _segment_depth(
             kappa = crease_concavity(conn[sl], float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])), cfg)
             crease = crease_mask(kappa, cfg)
         colour = None if rgb is None or kappa is None else lab_image(rgb[sl])
-        if colour is not None:
-            crease |= colour_creases(colour, kappa, cfg)
-        lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease=crease, colour=colour)
+        cut = None if colour is None else colour_creases(colour, kappa, cfg)
+        lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa)
         if kappa is not None and lab.max() > 0:
             pts = (rays[sl] * conn[sl][..., None]) @ R.T + t
             lab = join_supported(lab, pts, height[sl], n, cfg, depth=conn[sl])
