@@ -72,3 +72,12 @@ def test_parts_along_a_colour_edge_stay_apart():
     assert lab.max() == 1 and lab[40, 15] != lab[40, 55]
     off = dataclasses.replace(cfg, split_bridges_px=0)
     assert image_clusters(depth, height, mask, off, crease=cut, colour_crease=cut).max() == 0
+
+
+def test_parts_joined_back_are_numbered_by_size():
+    depth, height, mask = _blobs(2, step=0.0)
+    cut = np.zeros_like(mask)
+    cut[:40, 35:37] = cut[42:, 35:37] = True
+    cfg = SegmentationConfig(min_cluster_points=100, split_bridges_px=3)
+    lab = image_clusters(depth, height, mask, cfg, crease=cut)
+    assert sorted(np.unique(lab).tolist()) == [-1, 0]

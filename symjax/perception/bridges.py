@@ -170,5 +170,7 @@ def rejoin_smooth(
                 root[find(pb)] = find(pa)
     if (root == np.arange(n)).all():
         return labels
+    from symjax.perception.support import relabel_by_size
+
     top = np.array([find(i) for i in range(n)])
-    return np.where(labels >= 0, top[np.maximum(labels, 0)], -1).astype(np.int32)
+    return relabel_by_size(np.where(labels >= 0, top[np.maximum(labels, 0)], -1).astype(np.int32))
