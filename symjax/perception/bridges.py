@@ -116,18 +116,14 @@ def rejoin_smooth(
     noise creases that nearly cut one object (real stereo data) leave thin bridges too, but
     the parts on either side of them continue each other without a step. Parts whose boundary
     follows a colour crease for the most part stay apart (objects that colour separates)."""
+    from scipy.cluster.hierarchy import DisjointSet
     from scipy.ndimage import find_objects
 
     boxes = [(k, b) for k, b in enumerate(find_objects(component), start=1) if b is not None]
     if not boxes:
         return labels
     n = int(labels.max()) + 1
-    root = np.arange(n)
-
-    def find(a: int) -> int:
-        while root[a] != a:
-            a = root[a]
-        return a
+    joined = DisjointSet(range(n))
 
     for k, box in boxes:
         # The parts of the component's cores, and their boundary in a margin around it.
@@ -167,10 +163,10 @@ def rejoin_smooth(
             if ez is not None:
                 step |= float(np.mean(ez[on])) >= 0.5
             if not step:
-                root[find(pb)] = find(pa)
-    if (root == np.arange(n)).all():
+                joined.merge(pa, pb)
+    if joined.n_subsets == n:
         return labels
     from symjax.perception.support import relabel_by_size
 
-    top = np.array([find(i) for i in range(n)])
+    top = np.array([joined[i] for i in range(n)])
     return relabel_by_size(np.where(labels >= 0, top[np.maximum(labels, 0)], -1).astype(np.int32))
