@@ -88,7 +88,9 @@ def image_clusters(
         rim, component = thin_bridges(candidate & ~far_edge, height, config)
     if colour_crease is not None:
         far_edge |= colour_crease
-    core = candidate & ~far_edge if rim is None else candidate & ~far_edge & ~rim
+    core = candidate & ~far_edge
+    if rim is not None:
+        core &= ~rim
     n, lab = cv2.connectedComponents(core.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S)
     seeds = np.bincount(lab[core & (height > config.seed_height)], minlength=n)
     seeds[0] = 0
@@ -100,8 +102,8 @@ def image_clusters(
     labels = remap[lab]
     if rim is not None and rim.any():
         labels = grow_cores(labels, rim, component, colour_crease)
-        far_edge |= rim & (labels < 0)  # the rest is reattached as cut pixels are
-        far_edge &= ~(rim & (labels >= 0))
+        # Rim pixels no core reached are reattached as cut pixels are; the others are done.
+        far_edge = np.where(rim, labels < 0, far_edge)
     # Reattach the cut pixels, pass by pass, to the adjacent object at the closest depth: the
     # far side of an occluding edge joins its own surface (nearer in depth than the occluder), and
     # faces seen at grazing angles, whose every pixel steps by more than the jump, grow back
