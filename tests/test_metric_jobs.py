@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from symjax.evaluation.metric_jobs import MetricRunner, measure
+from symjax.evaluation.metric_jobs import MetricRunner, _worker_platforms, measure
 from symjax.metrics import centroid_error, oriented_diagonal
 
 
@@ -23,7 +23,10 @@ def test_worker_measures_what_the_process_measures():
         here, _ = inline.submit("Mir7", truth, mesh, 500, None).result()
     with MetricRunner(1) as pool:
         there, seconds = pool.submit("Mir7", truth, mesh, 500, None).result()
+        # A worker must leave an accelerator to the evaluating process (GPU memory).
+        platforms = pool._pool.submit(_worker_platforms).result()
     assert here == there and here.ok and seconds > 0
+    assert platforms == "cpu"
     assert measure("Mir7", None, mesh, 500, None).n_faces == len(mesh.faces)
 
 

@@ -73,6 +73,25 @@ def _measure_arrays(method: str, truth, mesh, n_samples: int, diagonal) -> tuple
     return res, time.perf_counter() - t0
 
 
+def _cpu_only() -> None:
+    """Worker initializer: the metrics are host code, and a worker that started JAX on a GPU
+    would take the device's memory (XLA preallocates 75 % per process), so the evaluating process
+    and eight workers of the ``gpu`` preset ran out of it on an H200 (2026-12-04)."""
+    import os
+
+    os.environ["JAX_PLATFORMS"] = "cpu"
+    import jax
+
+    jax.config.update("jax_platforms", "cpu")
+
+
+def _worker_platforms() -> str:
+    """The JAX platforms a worker may use (for the tests)."""
+    import jax
+
+    return str(jax.config.jax_platforms)
+
+
 class _Done:
     """A result computed in the evaluating process, with the interface of a ``Future``."""
 
@@ -87,7 +106,8 @@ class MetricRunner:
     """Runs :func:`measure` in ``workers`` processes (0: in this process, when called).
 
     A context manager: the workers start on entry (spawned, so they share no JAX state with
-    this process) and stop on exit, pending jobs cancelled.
+    this process; JAX on the CPU only, leaving an accelerator to this process) and stop on exit,
+    pending jobs cancelled.
     """
 
     def __init__(self, workers: int = 0) -> None:
@@ -99,7 +119,9 @@ class MetricRunner:
             import multiprocessing
 
             self._pool = ProcessPoolExecutor(
-                self.workers, mp_context=multiprocessing.get_context("spawn")
+                self.workers,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_cpu_only,
             )
         return self
 
