@@ -7,12 +7,14 @@ needle must appear in the message.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
 import os
 import subprocess
 import sys
+from io import StringIO
 from pathlib import Path
 
 import numpy as np
@@ -166,16 +168,29 @@ def _stray(n=400):
     return p, d
 
 
-def _cli(*argv: str, cwd: Path | None = None) -> None:
-    """Runs the symjax command; raises the typed error its stderr names (for the matrix)."""
-    exe = Path(sys.executable).with_name("symjax")
-    r = subprocess.run([str(exe), *argv], cwd=cwd, capture_output=True, text=True,
-                       env={**os.environ, "MPLBACKEND": "Agg"})  # fmt: skip
-    if r.returncode == 0:
+def _cli(*argv: str, cwd: Path | None = None, process: bool = False) -> None:
+    """Runs the symjax command; raises the typed error its stderr names (for the matrix).
+
+    In this process (``symjax.cli.main``, what the console calls) unless ``process``: a new
+    interpreter per row cost 5 s of imports on the 2-core CI machine.
+    """
+    if process:
+        exe = Path(sys.executable).with_name("symjax")
+        r = subprocess.run([str(exe), *argv], cwd=cwd, capture_output=True, text=True,
+                           env={**os.environ, "MPLBACKEND": "Agg"})  # fmt: skip
+        status, err = r.returncode, r.stderr
+    else:
+        from symjax.cli import main
+
+        buf = StringIO()
+        with contextlib.redirect_stderr(buf), contextlib.redirect_stdout(StringIO()):
+            status = main(list(argv))  # an exception here is the raw trace the rows forbid
+        err = buf.getvalue()
+    if status == 0:
         return
-    assert "Traceback" not in r.stderr, r.stderr[-2000:]
-    flat = " ".join(line.strip(" │╭╰─╮╯") for line in r.stderr.splitlines())
-    raise _CliError(f"exit {r.returncode}: {' '.join(flat.split())}")
+    assert "Traceback" not in err, err[-2000:]
+    flat = " ".join(line.strip(" │╭╰─╮╯") for line in err.splitlines())
+    raise _CliError(f"exit {status}: {' '.join(flat.split())}")
 
 
 class _CliError(SymjaxError):
@@ -523,7 +538,7 @@ CASES = [
     ("cli-generate-object", lambda d: _cli("generate", "--generate.objects", "no_such_scan", "--out-dir", str(d / "o")), _CliError, ["exit 2", "no_such_scan"]),
     ("cli-generate-candidates", lambda d: _cli("generate", "--generate.n-candidates", "0", "--out-dir", str(d / "o")), _CliError, ["exit 2", "n_candidates", ">= 1"]),
     # --- command line ------------------------------------------------------------------------
-    ("cli-unknown-command", lambda d: _cli("evaluate"), _CliError, ["unknown command 'evaluate'", "eval"]),
+    ("cli-unknown-command", lambda d: _cli("evaluate", process=True), _CliError, ["unknown command 'evaluate'", "eval"]),
     ("cli-preset", lambda d: _cli("eval", "--config", "papr"), _CliError, ["exit 2", "unknown preset 'papr'", "paper"]),
     ("cli-int-flag", lambda d: _cli("eval", "--n-samples", "lots"), _CliError, ["exit 2", "lots", "int"]),
     ("cli-range", lambda d: _cli("eval", "--n-samples", "3"), _CliError, ["exit 2", "n_samples", ">= 100", "got 3"]),
