@@ -52,9 +52,9 @@ def _files(out: Path) -> list[Path]:
 def test_generate_ci_writes_every_shard(ci_data):
     spec = CI.generate
     files = _files(ci_data)
-    assert len(files) == len(spec.objects) * len(spec.hands) == 6
+    assert len(files) == len(spec.objects) * len(spec.hands) == 4
     doc = json.loads((ci_data / "manifest.json").read_text())
-    assert doc["complete"] and doc["n_shards"] == 6
+    assert doc["complete"] and doc["n_shards"] == 4
     assert sorted(r["file"] for r in doc["shards"]) == sorted(
         str(f.relative_to(ci_data)) for f in files
     )
