@@ -38,9 +38,10 @@ def rollout_states(scene: GraspScene, mx, d0, p, keep_contacts: bool = False):
         p: The candidate's arrays (``qpos`` and the controls' parameters).
         keep_contacts: Also return the contacts at the start pose and at the grasp pose. A step
             runs the collision pass on the positions it starts from, so the contacts that step
-            ``k + 1`` leaves in its data are those of the state kept at step ``k``: keeping them
-            spares two ``mjx.forward`` passes, whose collision code tripled the compile (108 s
-            of 126 s for the SDH on the 2-core CPU).
+            ``k + 1`` leaves in its data are those of the state kept at step ``k`` (a lift step
+            always follows the grasp pose's, ``lift_time > 0``). Keeping them spares two
+            ``mjx.forward`` passes: the first call for 8 SDH candidates on the 2-core CPU took
+            102 s instead of 129 s, most of it the compile.
 
     Returns:
         ``(d_end, q_app, q_grasp, bad)``: the final data, the qpos at the end of the approach
@@ -97,21 +98,11 @@ def _mjx_runner(scene: GraspScene):
     mx = scene._mjx
     d0 = mjx.make_data(scene.model, impl="jax")
 
-    _, i_grasp, _ = snap_steps(scene.config)
-    in_scan = i_grasp + 1 < scene.config.n_steps  # a step follows the grasp pose's
-
     def one(p):
-        if in_scan:
-            d, q_app, q_grasp, bad, (c_start, c_grasp) = rollout_states(
-                scene, mx, d0, p, keep_contacts=True
-            )
-            return labels(scene, p, q_app, q_grasp, d.qpos, bad, c_grasp, c_start)
-        d_start = mjx.forward(mx, d0.replace(qpos=p["qpos"]))
-        d, q_app, q_grasp, bad = rollout_states(scene, mx, d0, p)
-        d_grasp = mjx.forward(mx, d0.replace(qpos=jnp.nan_to_num(q_grasp)))
-        return labels(
-            scene, p, q_app, q_grasp, d.qpos, bad, _contacts_mjx(d_grasp), _contacts_mjx(d_start)
+        d, q_app, q_grasp, bad, (c_start, c_grasp) = rollout_states(
+            scene, mx, d0, p, keep_contacts=True
         )
+        return labels(scene, p, q_app, q_grasp, d.qpos, bad, c_grasp, c_start)
 
     return jax.jit(jax.vmap(one, in_axes=(0,)))
 
