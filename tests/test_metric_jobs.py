@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from symjax.evaluation.metric_jobs import MetricRunner, _worker_platforms, measure
+from symjax.evaluation.metric_jobs import MetricRunner, measure
 from symjax.metrics import centroid_error, oriented_diagonal
 
 
@@ -15,6 +15,13 @@ def _meshes():
     mesh = trimesh.creation.icosphere(3, radius=0.06)
     mesh.apply_scale([0.7, 0.5, 1.0])
     return truth, mesh
+
+
+def _worker_platforms() -> str:
+    """The JAX platforms a worker process may use."""
+    import jax
+
+    return str(jax.config.jax_platforms)
 
 
 def test_worker_measures_what_the_process_measures():

@@ -85,13 +85,6 @@ def _cpu_only() -> None:
     jax.config.update("jax_platforms", "cpu")
 
 
-def _worker_platforms() -> str:
-    """The JAX platforms a worker may use (for the tests)."""
-    import jax
-
-    return str(jax.config.jax_platforms)
-
-
 class _Done:
     """A result computed in the evaluating process, with the interface of a ``Future``."""
 
