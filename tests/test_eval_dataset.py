@@ -241,3 +241,17 @@ def test_ctrl_c_stops_the_command_promptly(tmp_path):
     assert p.returncode == 130, err[-2000:]
     assert time.perf_counter() - t0 < 10.0
     assert "interrupted" in err and "Traceback" not in err
+
+
+def test_ctrl_c_while_the_command_imports(monkeypatch, capsys):
+    """The interrupt can land before the command's own handler exists (CI's 2 cores took over
+    4 s to import mujoco): still status 130 and one line, not Python's SIGINT death."""
+    from symjax import cli
+
+    def importing(argv):
+        raise KeyboardInterrupt
+
+    monkeypatch.setitem(cli.COMMANDS, "eval", (importing, "stub"))
+    assert cli.main(["eval"]) == 130
+    err = capsys.readouterr().err
+    assert err.strip() == "symjax eval: interrupted before it started"

@@ -109,4 +109,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"symjax: unknown command {name!r}; expected one of: {', '.join(COMMANDS)}",
               file=sys.stderr)  # fmt: skip
         return 2
-    return COMMANDS[name][0](rest)
+    try:
+        return COMMANDS[name][0](rest)
+    except KeyboardInterrupt:
+        # Ctrl-C while the command's modules are still importing, before its own handler
+        # (symjax.cli.common.run) is in place: nothing has been written yet.
+        print(f"symjax {name}: interrupted before it started", file=sys.stderr)
+        return 130
