@@ -93,7 +93,7 @@ def score_scenes(scenes, config: SegmentationConfig, colour: bool = False) -> di
         right = len(res) == len(ious)
         a[0] += 1
         a[1] += right
-        a[2] += right and ious.min() >= 0.85
+        a[2] += bool(right and ious.min() >= 0.85)
         a[3] += list(ious)
     return {
         g: {

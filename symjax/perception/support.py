@@ -6,8 +6,11 @@ their support in a concave edge. Objects on a table stand on the table, and two 
 stand on the same piece of it, so a part is joined to an adjacent one when most of its footprint
 lies on that part's footprint (the other part being lower, for a part whose lowest points float
 above the table, or larger otherwise), or when it is too narrow to be an object of its own and
-meets a part without a depth step (stacked objects therefore come out as one hypothesis). An
-object partly hidden behind another is not joined: its footprint lies behind the front one's.
+meets a part without a depth step (stacked objects therefore come out as one hypothesis); a
+part that floats above the table is too narrow when it was so as the creases cut it, before the
+parts above it joined it, and then joins only a part it meets from above (a bottle's shoulder
+with its neck, behind another bottle, goes to the strip of its body below it). An object partly
+hidden behind another is not joined: its footprint lies behind the front one's.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ __all__ = ["join_supported", "relabel_by_size", "smooth_contacts"]
 
 _FOOTPRINT_SLACK = 0.005  # m: a point may lie this far outside the support's footprint ...
 _ON_SUPPORT = 0.8  # ... and this share of the part's points must lie on it
+_RISE = 0.001  # m: mean height step across the contact of a shoulder on its body
 _MIN_TOUCH = 5  # pixel pairs: parts touching less than this are not neighbours
 _MAX_ARC_RADIUS = 0.75  # a round footprint's radius is at most this share of its width ...
 _ARC_TOLERANCE = 0.1  # ... and its points within this share of the radius of the circle
@@ -40,18 +44,23 @@ def relabel_by_size(labels: np.ndarray) -> np.ndarray:
     return remap[labels]  # -1 indexes the last entry, which stays -1
 
 
-def smooth_contacts(labels: np.ndarray, depth: np.ndarray, max_step: float) -> np.ndarray:
+def smooth_contacts(
+    labels: np.ndarray, depth: np.ndarray, max_step: float, value: np.ndarray | None = None
+) -> np.ndarray:
     """(K, K) counts of 4-neighbour pixel pairs of two parts whose depths differ by less than
-    ``max_step`` metres: where the parts meet on one surface, not across an occluding edge."""
+    ``max_step`` metres: where the parts meet on one surface, not across an occluding edge.
+    With ``value`` (H, W), the sums over those pairs of the first part's value minus the
+    second's instead (antisymmetric)."""
     n = int(labels.max(initial=-1)) + 1
-    out = np.zeros((n, n), np.int64)
-    for a, b, za, zb in (
-        (labels[:, :-1], labels[:, 1:], depth[:, :-1], depth[:, 1:]),
-        (labels[:-1], labels[1:], depth[:-1], depth[1:]),
+    out = np.zeros((n, n), np.int64 if value is None else np.float64)
+    v = np.zeros(labels.shape, np.int8) if value is None else value
+    for a, b, za, zb, va, vb in (
+        (labels[:, :-1], labels[:, 1:], depth[:, :-1], depth[:, 1:], v[:, :-1], v[:, 1:]),
+        (labels[:-1], labels[1:], depth[:-1], depth[1:], v[:-1], v[1:]),
     ):
         sel = (a != b) & (a >= 0) & (b >= 0) & (np.abs(za - zb) < max_step)
-        np.add.at(out, (a[sel], b[sel]), 1)
-    return out + out.T
+        np.add.at(out, (a[sel], b[sel]), 1 if value is None else (va - vb)[sel])
+    return out + out.T if value is None else out - out.T
 
 
 def _is_narrow(foot: np.ndarray, height: np.ndarray, narrow: float) -> bool:
@@ -152,8 +161,10 @@ def join_supported(
     if n < 2:
         return labels
     z = depth if depth is not None else np.zeros(labels.shape, np.float32)
-    contact = smooth_contacts(labels, z, 0.5 * config.depth_jump if depth is not None else np.inf)
+    step = 0.5 * config.depth_jump if depth is not None else np.inf
+    contact = smooth_contacts(labels, z, step)
     touch = smooth_contacts(labels, z, np.inf)  # any contact, across depth steps too
+    rise = smooth_contacts(labels, z, step, height)  # how far above the part it meets k is
     basis = _table_basis(normal)
     flat = labels.ravel()
     order = np.argsort(flat, kind="stable")
@@ -172,6 +183,14 @@ def join_supported(
     for k in sorted(parts, key=lambda k: -parts[k][2]):
         idx, own, low = parts[k]
         narrow = _is_narrow(own, hgt[idx], config.support_narrow)
+        on_top = False  # narrow only as cut: it may join only a part it meets from above
+        if not narrow and low > config.support_height:
+            # A floating part is judged as the creases cut it: a shoulder that took its neck
+            # is still a shoulder, but it stands on its body, above it where they meet; the
+            # hidden bottle's shoulder beside a box meets the box level. Parts that reach the
+            # table are judged with what joined them: a can's bottom band that took the can.
+            cut = order[starts[k] : starts[k + 1]]
+            narrow = on_top = _is_narrow(foot_all[cut], hgt[cut], config.support_narrow)
         own = own[:: max(1, len(own) // 500)]
         best, nearest = None, None
         for j in np.argsort(-touch[k], kind="stable"):
@@ -180,7 +199,7 @@ def join_supported(
             if j == k or j not in parts:
                 continue
             foot = parts[j][1]
-            if narrow and contact[k, j] > 0:
+            if narrow and contact[k, j] > 0 and (not on_top or rise[k, j] > _RISE * contact[k, j]):
                 gap = float(np.median(np.linalg.norm(foot - own.mean(axis=0), axis=1)))
                 if nearest is None or gap < nearest[1]:
                     nearest = (j, gap)
@@ -211,7 +230,7 @@ def join_supported(
             parts[best][0] = np.concatenate([parts[best][0], idx])
             parts[best][1] = np.concatenate([parts[best][1], parts[k][1]])
             discs.pop(best, None)
-            for mat in (contact, touch):
+            for mat in (contact, touch, rise):
                 mat[best] += mat[k]
                 mat[:, best] += mat[:, k]
                 mat[k], mat[:, k] = 0, 0
