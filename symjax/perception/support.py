@@ -22,7 +22,7 @@ import numpy as np
 from symjax.geometry import tangent_basis
 from symjax.perception.config import SegmentationConfig
 
-__all__ = ["join_supported", "relabel_by_size", "smooth_contacts"]
+__all__ = ["contacts", "join_supported", "relabel_by_size"]
 
 _FOOTPRINT_SLACK = 0.005  # m: a point may lie this far outside the support's footprint ...
 _ON_SUPPORT = 0.8  # ... and this share of the part's points must lie on it
@@ -44,23 +44,40 @@ def relabel_by_size(labels: np.ndarray) -> np.ndarray:
     return remap[labels]  # -1 indexes the last entry, which stays -1
 
 
-def smooth_contacts(
-    labels: np.ndarray, depth: np.ndarray, max_step: float, value: np.ndarray | None = None
-) -> np.ndarray:
-    """(K, K) counts of 4-neighbour pixel pairs of two parts whose depths differ by less than
-    ``max_step`` metres: where the parts meet on one surface, not across an occluding edge.
-    With ``value`` (H, W), the sums over those pairs of the first part's value minus the
-    second's instead (antisymmetric)."""
+def contacts(
+    labels: np.ndarray, depth: np.ndarray, max_step: float, height: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where parts meet, from their 4-neighbour pixel pairs.
+
+    Args:
+        labels: (H, W) int parts, -1 none.
+        depth: (H, W) metres.
+        max_step: Metres: pairs whose depths differ by less meet on one surface, not across an
+            occluding edge.
+        height: (H, W) height above the table, metres.
+
+    Returns:
+        ``(smooth, touch, rise)``, each (K, K): counts of the pairs of two parts on one surface
+        and of all their pairs, and the sums over the smooth pairs of the first part's height
+        minus the second's (antisymmetric: positive where the first meets the second from
+        above).
+    """
     n = int(labels.max(initial=-1)) + 1
-    out = np.zeros((n, n), np.int64 if value is None else np.float64)
-    v = np.zeros(labels.shape, np.int8) if value is None else value
-    for a, b, za, zb, va, vb in (
-        (labels[:, :-1], labels[:, 1:], depth[:, :-1], depth[:, 1:], v[:, :-1], v[:, 1:]),
-        (labels[:-1], labels[1:], depth[:-1], depth[1:], v[:-1], v[1:]),
+    smooth = np.zeros(n * n, np.int64)
+    touch = np.zeros(n * n, np.int64)
+    rise = np.zeros(n * n, np.float64)
+    for a, b, za, zb, ha, hb in (
+        (labels[:, :-1], labels[:, 1:], depth[:, :-1], depth[:, 1:], height[:, :-1], height[:, 1:]),
+        (labels[:-1], labels[1:], depth[:-1], depth[1:], height[:-1], height[1:]),
     ):
-        sel = (a != b) & (a >= 0) & (b >= 0) & (np.abs(za - zb) < max_step)
-        np.add.at(out, (a[sel], b[sel]), 1 if value is None else (va - vb)[sel])
-    return out + out.T if value is None else out - out.T
+        pair = (a != b) & (a >= 0) & (b >= 0)
+        ab = a[pair].astype(np.int64) * n + b[pair]
+        on = np.abs(za[pair] - zb[pair]) < max_step
+        touch += np.bincount(ab, minlength=n * n)
+        smooth += np.bincount(ab[on], minlength=n * n)
+        rise += np.bincount(ab[on], (ha[pair] - hb[pair])[on].astype(np.float64), minlength=n * n)
+    smooth, touch, rise = (x.reshape(n, n) for x in (smooth, touch, rise))
+    return smooth + smooth.T, touch + touch.T, rise - rise.T
 
 
 def _is_narrow(foot: np.ndarray, height: np.ndarray, narrow: float) -> bool:
@@ -70,8 +87,10 @@ def _is_narrow(foot: np.ndarray, height: np.ndarray, narrow: float) -> bool:
     f = foot[::step] - foot[::step].mean(axis=0)
     _, _, vt = np.linalg.svd(f, full_matrices=False)
     a = f @ vt.T
-    major, minor = np.percentile(a, 98, axis=0) - np.percentile(a, 2, axis=0)
-    tall = float(np.percentile(height[::step], 98) - np.percentile(height[::step], 2))
+    lo, hi = np.percentile(a, (2, 98), axis=0)
+    major, minor = hi - lo
+    h_lo, h_hi = np.percentile(height[::step], (2, 98))
+    tall = float(h_hi - h_lo)
     return bool(major < narrow or (minor < 0.6 * narrow and max(major, tall) < 2 * narrow))
 
 
@@ -107,7 +126,8 @@ def _round_footprint(foot: np.ndarray) -> tuple[np.ndarray, float] | None:
     if not r2 > 0:
         return None
     r = math.sqrt(r2)
-    extent = float(np.max(np.percentile(f, 98, axis=0) - np.percentile(f, 2, axis=0)))
+    lo, hi = np.percentile(f, (2, 98), axis=0)
+    extent = float(np.max(hi - lo))
     off = np.abs(np.linalg.norm(f - c, axis=1) - r)
     if r > _MAX_ARC_RADIUS * extent or float(np.median(off)) > _ARC_TOLERANCE * r:
         return None
@@ -162,9 +182,9 @@ def join_supported(
         return labels
     z = depth if depth is not None else np.zeros(labels.shape, np.float32)
     step = 0.5 * config.depth_jump if depth is not None else np.inf
-    contact = smooth_contacts(labels, z, step)
-    touch = smooth_contacts(labels, z, np.inf)  # any contact, across depth steps too
-    rise = smooth_contacts(labels, z, step, height)  # how far above the part it meets k is
+    # touch counts contacts across depth steps too; rise says how far above the part it meets
+    # a part is.
+    contact, touch, rise = contacts(labels, z, step, height)
     basis = _table_basis(normal)
     flat = labels.ravel()
     order = np.argsort(flat, kind="stable")
@@ -178,7 +198,10 @@ def join_supported(
         if len(idx):
             parts[k] = [idx, foot_all[idx], float(np.percentile(hgt[idx], 5))]
     owner = np.arange(n)
-    discs: dict = {}  # part -> its round footprint's disc (or None), computed when first needed
+    # Part -> its footprint's convex hull, and its round footprint's disc (or None), computed
+    # when first needed.
+    hulls: dict = {}
+    discs: dict = {}
     # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
     for k in sorted(parts, key=lambda k: -parts[k][2]):
         idx, own, low = parts[k]
@@ -207,9 +230,10 @@ def join_supported(
             # footprint (a band of an object's side cut off by a crease across it).
             if parts[j][2] >= low if low > config.support_height else len(foot) <= len(idx):
                 continue
-            sub = np.ascontiguousarray(foot[:: max(1, len(foot) // 4000)], np.float32)
-            hull = cv2.convexHull(sub)[:, 0].astype(np.float64)
-            if np.mean(_hull_distance(hull, own) >= -_FOOTPRINT_SLACK) >= _ON_SUPPORT:
+            if j not in hulls:
+                sub = np.ascontiguousarray(foot[:: max(1, len(foot) // 4000)], np.float32)
+                hulls[j] = cv2.convexHull(sub)[:, 0].astype(np.float64)
+            if np.mean(_hull_distance(hulls[j], own) >= -_FOOTPRINT_SLACK) >= _ON_SUPPORT:
                 best = j
                 break
             # A round part's footprint is an arc: what lies within its circle is inside it (the
@@ -230,6 +254,7 @@ def join_supported(
             parts[best][0] = np.concatenate([parts[best][0], idx])
             parts[best][1] = np.concatenate([parts[best][1], parts[k][1]])
             discs.pop(best, None)
+            hulls.pop(best, None)
             for mat in (contact, touch, rise):
                 mat[best] += mat[k]
                 mat[:, best] += mat[:, k]

@@ -1,0 +1,64 @@
+"""Where crease-cut parts meet: the contact counts and height steps against a pixel loop."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symjax.perception.support import contacts
+
+
+def _loop(labels, depth, max_step, height):
+    n = int(labels.max(initial=-1)) + 1
+    smooth, touch, rise = np.zeros((n, n), int), np.zeros((n, n), int), np.zeros((n, n))
+    H, W = labels.shape
+    for r in range(H):
+        for c in range(W):
+            for r2, c2 in ((r, c + 1), (r + 1, c)):
+                if r2 >= H or c2 >= W:
+                    continue
+                a, b = labels[r, c], labels[r2, c2]
+                if a < 0 or b < 0 or a == b:
+                    continue
+                for x, y in ((a, b), (b, a)):
+                    touch[x, y] += 1
+                if abs(depth[r, c] - depth[r2, c2]) < max_step:
+                    smooth[a, b] += 1
+                    smooth[b, a] += 1
+                    rise[a, b] += height[r, c] - height[r2, c2]
+                    rise[b, a] -= height[r, c] - height[r2, c2]
+    return smooth, touch, rise
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.integers(2, 9),
+    st.integers(2, 9),
+    st.integers(1, 4),
+    st.integers(0, 2**31 - 1),
+)
+def test_contacts_match_a_pixel_loop(H, W, parts, seed):
+    rng = np.random.default_rng(seed)
+    labels = rng.integers(-1, parts, (H, W)).astype(np.int32)
+    labels[0, 0] = parts - 1  # every label up to parts - 1 exists
+    depth = rng.uniform(0.5, 0.52, (H, W)).astype(np.float32)
+    height = rng.uniform(0.0, 0.2, (H, W)).astype(np.float32)
+    got = contacts(labels, depth, 0.01, height)
+    want = _loop(labels, depth, 0.01, height)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    np.testing.assert_allclose(got[2], want[2], atol=1e-5)
+    np.testing.assert_allclose(got[2], -got[2].T)
+
+
+def test_contacts_of_a_neck_on_its_shoulder():
+    # A 2 x 4 neck (part 1) standing 5 mm above the shoulder row below it (part 0), and a
+    # part 2 beside the shoulder behind a 3 cm depth step.
+    labels = np.array([[-1, 1, 1, -1], [-1, 1, 1, -1], [0, 0, 0, 2]], np.int32)
+    height = np.array([[0, 0.11, 0.11, 0], [0, 0.105, 0.105, 0], [0.1, 0.1, 0.1, 0.1]])
+    depth = np.array([[0, 0.8, 0.8, 0], [0, 0.8, 0.8, 0], [0.8, 0.8, 0.8, 0.83]])
+    smooth, touch, rise = contacts(labels, depth, 0.01, height)
+    assert smooth[0, 1] == smooth[1, 0] == 2
+    assert touch[0, 2] == 1 and smooth[0, 2] == 0
+    np.testing.assert_allclose(rise[1, 0] / smooth[1, 0], 0.005)
