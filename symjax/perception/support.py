@@ -80,6 +80,13 @@ def contacts(
     return smooth + smooth.T, touch + touch.T, rise - rise.T
 
 
+def _extent(x: np.ndarray) -> np.ndarray:
+    """Robust extent along axis 0: the 98th percentile minus the 2nd (outliers and flying
+    pixels do not count)."""
+    lo, hi = np.percentile(x, (2, 98), axis=0)
+    return hi - lo
+
+
 def _is_narrow(foot: np.ndarray, height: np.ndarray, narrow: float) -> bool:
     """Too small to be an object of its own: narrower than ``narrow`` (m) across, or a thin
     piece (under 0.6 of that thick) at most twice that long and high (a mug's handle)."""
@@ -87,10 +94,8 @@ def _is_narrow(foot: np.ndarray, height: np.ndarray, narrow: float) -> bool:
     f = foot[::step] - foot[::step].mean(axis=0)
     _, _, vt = np.linalg.svd(f, full_matrices=False)
     a = f @ vt.T
-    lo, hi = np.percentile(a, (2, 98), axis=0)
-    major, minor = hi - lo
-    h_lo, h_hi = np.percentile(height[::step], (2, 98))
-    tall = float(h_hi - h_lo)
+    major, minor = _extent(a)
+    tall = float(_extent(height[::step]))
     return bool(major < narrow or (minor < 0.6 * narrow and max(major, tall) < 2 * narrow))
 
 
@@ -126,8 +131,7 @@ def _round_footprint(foot: np.ndarray) -> tuple[np.ndarray, float] | None:
     if not r2 > 0:
         return None
     r = math.sqrt(r2)
-    lo, hi = np.percentile(f, (2, 98), axis=0)
-    extent = float(np.max(hi - lo))
+    extent = float(np.max(_extent(f)))
     off = np.abs(np.linalg.norm(f - c, axis=1) - r)
     if r > _MAX_ARC_RADIUS * extent or float(np.median(off)) > _ARC_TOLERANCE * r:
         return None
@@ -182,8 +186,8 @@ def join_supported(
         return labels
     z = depth if depth is not None else np.zeros(labels.shape, np.float32)
     step = 0.5 * config.depth_jump if depth is not None else np.inf
-    # touch counts contacts across depth steps too; rise says how far above the part it meets
-    # a part is.
+    # contact: pixel pairs on one surface; touch: all pairs, across depth steps too; rise: how
+    # far above the part it meets a part is there.
     contact, touch, rise = contacts(labels, z, step, height)
     basis = _table_basis(normal)
     flat = labels.ravel()
