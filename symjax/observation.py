@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from typing import Any, Literal
 
@@ -50,10 +51,13 @@ def clean_points(points: ArrayLike, what: str = "point cloud") -> np.ndarray:
         raise ShapeError(f"{what} must have shape (N, 3), got {p.shape}")
     if p.shape[0] == 0:
         raise EmptyInputError(f"{what} is empty; expected at least {MIN_POINTS} points")
-    finite = np.all(np.isfinite(p), axis=1)
-    if not finite.any():
-        raise EmptyInputError(f"{what} has no finite points (all {p.shape[0]} are NaN or inf)")
-    p = p[finite]
+    # One pass over the flat array first: most clouds are finite, and the per-row test (a
+    # reduction over an axis of 3) is several times slower.
+    if not np.isfinite(p).all():
+        finite = np.all(np.isfinite(p), axis=1)
+        if not finite.any():
+            raise EmptyInputError(f"{what} has no finite points (all {p.shape[0]} are NaN or inf)")
+        p = p[finite]
     if p.shape[0] < MIN_POINTS:
         raise EmptyInputError(
             f"{what} has {p.shape[0]} finite points; expected at least {MIN_POINTS}"
@@ -93,7 +97,10 @@ class SceneLimits:
             InvalidInputError: Too large or too far (likely millimetres passed as metres).
             DegenerateGeometryError: Too small: the points coincide, or the unit is wrong.
         """
-        extent = float(np.max(np.ptp(points, axis=0)))
+        # Per coordinate as contiguous rows: reductions over an (N, 3) array's short axis or
+        # its strided columns are several times slower (a segmented 720p frame checks 7 objects).
+        rows = np.ascontiguousarray(points.T)
+        extent = float(np.max(rows.max(axis=1) - rows.min(axis=1)))
         if extent > self.max_extent:
             raise InvalidInputError(
                 f"{what} is {extent:.4g} m across; a table-top object is at most"
@@ -106,7 +113,8 @@ class SceneLimits:
                 f" {self.min_extent * 1e3:g} mm (SceneLimits.min_extent): the points coincide or"
                 " are in a larger unit than metres"
             )
-        far = float(np.max(np.linalg.norm(points - np.asarray(camera.position), axis=1)))
+        d = rows - np.asarray(camera.position, np.float64)[:, None]
+        far = math.sqrt(float(np.max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])))
         if far > self.max_distance:
             raise InvalidInputError(
                 f"{what} is {far:.4g} m from the camera; expected at most {self.max_distance} m"

@@ -62,6 +62,44 @@ def pair_scenes():
     return [clutter_scene(k, seed=s, arrangement=a) for k, s, a in out]
 
 
+def _concavity_reference(z, focal, scale_px, max_step):
+    """Eq. of :func:`concavity` without smoothing, a direction and a pixel at a time."""
+    H, W = z.shape
+    w = np.where(z > 0, 1.0 / np.maximum(z, 1e-6), 0.0)
+    out = np.zeros((H, W))
+    for r in range(H):
+        for c in range(W):
+            if w[r, c] <= 0:
+                continue
+            best = -np.inf
+            for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+                span = scale_px * math.hypot(dr, dc)
+                ends = [(r - dr * scale_px, c - dc * scale_px)]
+                ends.append((r + dr * scale_px, c + dc * scale_px))
+                ok = all(0 <= y < H and 0 <= x < W and w[y, x] > 0 for y, x in ends)
+                ok = ok and all(abs(z[y, x] - z[r, c]) < max_step for y, x in ends)
+                d2 = sum(w[y, x] for y, x in ends) - 2.0 * w[r, c] if ok else 0.0
+                best = max(best, d2 * z[r, c] * focal / (2.0 * span))
+            out[r, c] = best
+    return out
+
+
+@pytest.mark.parametrize("max_step", [np.inf, 0.02])
+def test_concavity_matches_the_pixel_by_pixel_reference(max_step):
+    rng = np.random.default_rng(3)
+    cols = np.abs(np.arange(27) - 13.0)
+    z = (0.65 + 0.0015 * cols + rng.uniform(0.0, 0.002, (19, 27))).astype(np.float32)
+    z[rng.random(z.shape) < 0.15] = 0.0  # no depth
+    z[5:9] += 0.05  # a step, larger than max_step
+    got = concavity(z, F, scale_px=3, smooth_px=0, max_step=max_step)
+    want = _concavity_reference(z.astype(np.float64), F, 3, max_step)
+    assert got.dtype == np.float32
+    # float32 second differences of inverse depth (~1.5 /m) against float64 ones, times
+    # z f / (2 span) ~ 60: a few 1e-5 apart at most.
+    np.testing.assert_allclose(got, want, rtol=1e-4, atol=5e-5)
+    assert (want > 1e-3).any() and (want < -1e-3).any()
+
+
 def test_touching_pairs_come_apart(pair_scenes):
     right = 0
     for sc in pair_scenes:

@@ -6,7 +6,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from symjax.perception.support import contacts
+from symjax.geometry import pixel_rays, tangent_basis
+from symjax.perception.support import contacts, table_footprint
 
 
 def _loop(labels, depth, max_step, height):
@@ -62,3 +63,27 @@ def test_contacts_of_a_neck_on_its_shoulder():
     assert smooth[0, 1] == smooth[1, 0] == 2
     assert touch[0, 2] == 1 and smooth[0, 2] == 0
     np.testing.assert_allclose(rise[1, 0] / smooth[1, 0], 0.005)
+
+
+def test_table_footprint_is_the_world_points_in_the_table_basis():
+    rng = np.random.default_rng(5)
+    H, W = 12, 16
+    K = np.array([[500.0, 0.0, W / 2], [0.0, 500.0, H / 2], [0.0, 0.0, 1.0]])
+    rays = pixel_rays(K, H, W).astype(np.float32)
+    depth = rng.uniform(0.5, 1.0, (H, W)).astype(np.float32)
+    labels = rng.integers(-1, 3, (H, W)).astype(np.int32)
+    a = rng.normal(size=3)
+    R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R * np.sign(np.linalg.det(R)), a
+    n = rng.normal(size=3)
+    n /= np.linalg.norm(n)
+    world = (rays.astype(np.float64) * depth[..., None]) @ T[:3, :3].T + T[:3, 3]
+    want = world @ np.stack(tangent_basis(n), 1)
+    # A crop, as the segmentation passes it: not contiguous.
+    sl = (slice(1, H - 1), slice(2, W - 1))
+    got = table_footprint(labels[sl], rays[sl], depth[sl], T, n)
+    assert got.shape == (H - 2, W - 3, 2)
+    on = labels[sl] >= 0
+    np.testing.assert_allclose(got[on], want[sl][on], atol=1e-6)
+    assert not got[~on].any()

@@ -59,23 +59,41 @@ def concavity(
 
     z = np.asarray(depth, np.float32)
     if smooth_px:
-        z = np.where(z > 0, cv2.bilateralFilter(z, smooth_px, smooth_depth, smooth_px / 3), 0)
-    w = np.where(z > 0, 1.0 / np.maximum(z, 1e-6), 0.0).astype(np.float32)
-    best = np.full(z.shape, -np.inf, np.float32)
+        z = cv2.bilateralFilter(z, smooth_px, smooth_depth, smooth_px / 3) * (z > 0)
+    # Products with masks where np.where would do: the values are finite, and np.where on an
+    # unpredictable mask is several times slower (a 0 may come out as -0, which compares equal).
+    w = (1.0 / np.maximum(z, 1e-6)) * (z > 0)
+    # The samples before and after each pixel are views into zero-padded copies, and the terms
+    # are formed in place: shifted copies and temporaries were most of the time (the same
+    # arithmetic, so the same values).
+    s, (H, W) = scale_px, z.shape
+    wp, zp = np.pad(w, s), np.pad(z, s)
+
+    def at(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
+        return a[s + dr * s : s + dr * s + H, s + dc * s : s + dc * s + W]
+
+    w2 = 2.0 * w
+    # The largest second difference per span (axes, diagonals), scaled once per span: the
+    # scale is positive, so the largest product is the product of the largest difference.
+    top: dict = {}
     for dr, dc in _DIRECTIONS:
-        a, b = _shift(w, -dr * scale_px, -dc * scale_px), _shift(w, dr * scale_px, dc * scale_px)
+        a, b = at(wp, -dr, -dc), at(wp, dr, dc)
         span = scale_px * (1.0 if dr == 0 or dc == 0 else np.sqrt(2.0))
         ok = (a > 0) & (b > 0)
         if np.isfinite(max_step):
-            za, zb = (
-                _shift(z, -dr * scale_px, -dc * scale_px),
-                _shift(z, dr * scale_px, dc * scale_px),
-            )
-            ok &= (np.abs(za - z) < max_step) & (np.abs(zb - z) < max_step)
+            for zn in (at(zp, -dr, -dc), at(zp, dr, dc)):
+                step = zn - z
+                np.abs(step, out=step)
+                ok &= step < max_step
+        d2 = a + b
+        d2 -= w2
+        d2 *= ok
+        top[span] = d2 if span not in top else np.maximum(top[span], d2, out=top[span])
+    best = np.full(z.shape, -np.inf, np.float32)
+    for span, d2 in top.items():
         # Sagitta z^2 * d2w / 2 over the half span z * span / f.
-        k = np.where(ok, (a + b - 2.0 * w) * (z * focal / (2.0 * span)), 0.0)
-        np.maximum(best, k, out=best)
-    return np.where(w > 0, best, np.float32(0.0))
+        np.maximum(best, d2 * (z * focal / (2.0 * span)), out=best)
+    return best * (w > 0)
 
 
 def crease_concavity(depth: np.ndarray, focal: float, config) -> np.ndarray:

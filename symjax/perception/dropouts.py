@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from symjax.perception.hull import convex_hull_2d
+
 __all__ = ["claim_dropouts"]
 
 
@@ -20,11 +22,8 @@ def _column(points: np.ndarray, basis: np.ndarray, offset: float):
     """The footprint hull (V, 2) of the points in the table basis (counter-clockwise) and their
     top height, metres. (A stack of hulls per height band follows a bottle's neck but loses the
     tops without depth: 4 bands scored a lower mean IoU on the clutter scenes, 0.950 vs 0.957.)"""
-    import cv2
-
     uvh = points @ basis.T + np.array([0.0, 0.0, offset])
-    hull = cv2.convexHull(uvh[:, :2].astype(np.float32), clockwise=False)
-    return hull.reshape(-1, 2).astype(np.float64), float(uvh[:, 2].max())
+    return convex_hull_2d(uvh[:, :2]), float(uvh[:, 2].max())
 
 
 def _entry(
@@ -48,34 +47,44 @@ def _entry(
 
     clip(np.full(len(d_uvh), o_uvh[2] - floor), d_uvh[:, 2])  # above the floor
     clip(np.full(len(d_uvh), top - o_uvh[2]), -d_uvh[:, 2])  # below the top
-    for a, b in zip(hull, np.roll(hull, -1, axis=0), strict=True):
-        inward = np.array([-(b - a)[1], (b - a)[0]])  # left of a counter-clockwise edge
-        clip(np.full(len(d_uvh), inward @ (o_uvh[:2] - a)), d_uvh[:, :2] @ inward)
+    e = np.roll(hull, -1, axis=0) - hull
+    inward = np.stack([-e[:, 1], e[:, 0]], axis=1)  # left of a counter-clockwise edge
+    num = inward[:, 0] * (o_uvh[0] - hull[:, 0]) + inward[:, 1] * (o_uvh[1] - hull[:, 1])
+    # All edges at once (R, V): one pass instead of one per edge.
+    den = d_uvh[:, :1] * inward[None, :, 0] + d_uvh[:, 1:2] * inward[None, :, 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = -num / den
+    np.maximum(lo, np.where(den > 0, s, -np.inf).max(axis=1, initial=-np.inf), out=lo)
+    np.minimum(hi, np.where(den < 0, s, np.inf).min(axis=1, initial=np.inf), out=hi)
+    hi[((den == 0) & (num < 0)).any(axis=1)] = -np.inf
     return np.where(lo <= hi, lo, np.inf)
 
 
 def claim_dropouts(
     labels: np.ndarray,
     valid: np.ndarray,
-    rays_world: np.ndarray,
-    origin: np.ndarray,
+    rays: np.ndarray,
+    T_world_cam: np.ndarray,
     points: dict[int, np.ndarray],
     normal: np.ndarray,
     offset: float,
     max_px: int,
+    boxes=None,
 ) -> np.ndarray:
     """The object each pixel without depth shows, where only one can be shown.
 
     Args:
         labels: (H, W) int object label per measured pixel, -1 elsewhere.
         valid: (H, W) bool, pixels with a depth measurement.
-        rays_world: (H, W, 3) viewing directions in the world frame (any length).
-        origin: (3,) camera centre, world frame, metres.
+        rays: (H, W, 3) viewing directions in the camera frame (any length).
+        T_world_cam: (4, 4) camera pose.
         points: The objects to claim for: label -> its (N_k, 3) measured points, world frame,
             metres (labels not in it claim nothing).
         normal: (3,) unit table normal (up); heights are ``normal . x + offset``.
         offset: Table plane offset, metres.
         max_px: Claimed pixels lie within this many pixels of the object's measured pixels.
+        boxes: The objects' bounding boxes in ``labels`` (``scipy.ndimage.find_objects(labels
+            + 1)``), found here when not given.
 
     Returns:
         (H, W) int: the label of the object claiming each pixel without depth, -1 where none
@@ -92,12 +101,16 @@ def claim_dropouts(
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(n, e1)
     basis = np.stack([e1, e2, n])
-    o = basis @ np.asarray(origin, np.float64) + np.array([0.0, 0.0, offset])
+    T = np.asarray(T_world_cam, np.float64)
+    o = basis @ T[:3, 3] + np.array([0.0, 0.0, offset])
+    # Rays in the table basis straight from the camera frame, only for the pixels in question.
+    cam_to_uvh = T[:3, :3].T @ basis.T
     best = np.full(labels.shape, np.inf)
     free = ~valid & (labels < 0)
     H, W = labels.shape
     # Each object's box from one pass over the labels, not a full-frame scan per object.
-    boxes = find_objects(np.maximum(labels + 1, 0), max_label=int(labels.max(initial=-1)) + 1)
+    if boxes is None:
+        boxes = find_objects(np.maximum(labels + 1, 0), max_label=int(labels.max(initial=-1)) + 1)
     for k, p in points.items():
         box = boxes[k] if 0 <= k < len(boxes) else None
         if len(p) < 3 or box is None:
@@ -114,7 +127,7 @@ def claim_dropouts(
         if len(rr) == 0:
             continue
         rr, cc = rr + r0, cc + c0
-        s = _entry(hull, top, o, rays_world[rr, cc].astype(np.float64) @ basis.T)
+        s = _entry(hull, top, o, rays[rr, cc].astype(np.float64) @ cam_to_uvh)
         take = s < best[rr, cc]
         best[rr[take], cc[take]] = s[take]
         out[rr[take], cc[take]] = k

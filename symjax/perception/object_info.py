@@ -38,12 +38,16 @@ class ObjectInfo:
 
 
 def _footprint_extent(points: np.ndarray, table: TablePlane) -> float:
+    """Largest width (m) of the points' (N, 3) footprint on the table, along its principal
+    axes."""
     n = np.asarray(table.normal, np.float64)
-    q = points - np.outer(points @ n, n)
-    q = q - q.mean(axis=0)
-    _, _, vt = np.linalg.svd(q[:: max(1, len(q) // 2000)], full_matrices=False)
-    a = q @ vt[:2].T
-    return float(np.max(a.max(axis=0) - a.min(axis=0)))
+    # Coordinates as contiguous rows: products and reductions over an (N, 3) array's short axis
+    # are several times slower (1.8 -> 0.5 ms for a 28k-point object).
+    q = np.array(points.T, np.float64)
+    q -= n[:, None] * (n[0] * q[0] + n[1] * q[1] + n[2] * q[2])
+    q -= q.mean(axis=1, keepdims=True)
+    _, _, vt = np.linalg.svd(q[:, :: max(1, q.shape[1] // 2000)].T, full_matrices=False)
+    return float(max(np.ptp(v[0] * q[0] + v[1] * q[1] + v[2] * q[2]) for v in vt[:2]))
 
 
 def _relations(labels: np.ndarray, depth: np.ndarray, k: int, box, cfg: SegmentationConfig):
@@ -71,31 +75,41 @@ def _relations(labels: np.ndarray, depth: np.ndarray, k: int, box, cfg: Segmenta
     return tuple(near), tuple(occluders)
 
 
-def _touches_border(mask: np.ndarray, px: int) -> bool:
+def _touches_border(labels: np.ndarray, k: int, box, px: int) -> bool:
+    """Object ``k``'s pixels (within its bounding ``box``) reach within ``px`` of the border."""
     b = max(px, 1)
-    return bool(mask[:b].any() or mask[-b:].any() or mask[:, :b].any() or mask[:, -b:].any())
+    H, W = labels.shape
+    r0, r1, c0, c1 = box[0].start, box[0].stop, box[1].start, box[1].stop
+    if r0 >= b and r1 <= H - b and c0 >= b and c1 <= W - b:
+        return False
+    rows = np.arange(r0, r1)[:, None]
+    cols = np.arange(c0, c1)[None, :]
+    near = (rows < b) | (rows >= H - b) | (cols < b) | (cols >= W - b)
+    return bool((near & (labels[box] == k)).any())
 
 
 def describe_objects(
-    objects, labels, depth, table, cfg: SegmentationConfig
+    objects, labels, depth, table, cfg: SegmentationConfig, boxes=None
 ) -> tuple[tuple[ObjectInfo, ...], tuple[str, ...]]:
+    """One :class:`ObjectInfo` per object and the notes for the user; ``boxes`` are the
+    objects' bounding boxes in ``labels`` (``scipy.ndimage.find_objects(labels + 1)``), found
+    here when not given."""
     from scipy.ndimage import find_objects
 
     infos, notes = [], []
-    boxes = find_objects(labels + 1, max_label=len(objects))
+    if boxes is None:
+        boxes = find_objects(labels + 1, max_label=len(objects))
     for k, obs in enumerate(objects):
         pts = obs.valid_points().astype(np.float64)
         box = boxes[k] if k < len(boxes) else None
-        mask = np.zeros(labels.shape, bool)
-        if box is not None:
-            mask[box] = labels[box] == k
-        near, occ = _relations(labels, depth, k, box, cfg) if mask.any() else ((), ())
+        seen = box is not None and bool((labels[box] == k).any())
+        near, occ = _relations(labels, depth, k, box, cfg) if seen else ((), ())
         extent = _footprint_extent(pts, table)
         info = ObjectInfo(
             n_points=len(pts),
             centroid=pts.mean(axis=0),
             extent=extent,
-            touches_border=_touches_border(mask, cfg.border_px),
+            touches_border=seen and _touches_border(labels, k, box, cfg.border_px),
             neighbours=near,
             occluded_by=occ,
             maybe_merged=extent > cfg.max_object_extent,
@@ -117,9 +131,23 @@ def describe_objects(
     return tuple(infos), tuple(notes)
 
 
-def occluder_depth(labels: np.ndarray, depth: np.ndarray, occluders: tuple[int, ...]):
-    """Depth (H, W) of the pixels of the objects ``occluders`` (those in front of an object), 0
-    elsewhere: space the object may extend behind, not free space seen empty (Eq. 3)."""
+def occluder_depth(
+    labels: np.ndarray, depth: np.ndarray, occluders: tuple[int, ...], boxes=None
+) -> np.ndarray:
+    """Depth (H, W) float32 of the pixels of the objects ``occluders`` (those in front of an
+    object), 0 elsewhere: space the object may extend behind, not free space seen empty (Eq. 3).
+
+    ``boxes`` (``scipy.ndimage.find_objects(labels + 1)``) confines the work to the occluders'
+    bounding boxes.
+    """
+    if boxes is not None:
+        out = np.zeros(labels.shape, np.float32)
+        for j in occluders:
+            box = boxes[j] if 0 <= j < len(boxes) else None
+            if box is not None:
+                sel = labels[box] == j
+                out[box][sel] = depth[box][sel]
+        return out
     if not occluders:
         return np.zeros(labels.shape, np.float32)
     # A lookup table indexed by label, not np.isin: isin sorts the whole frame (7 ms at 720p).

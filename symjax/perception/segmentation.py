@@ -24,7 +24,7 @@ from symjax.perception.creases import colour_creases, crease_concavity, crease_m
 from symjax.perception.dropouts import claim_dropouts
 from symjax.perception.object_info import ObjectInfo, describe_objects, occluder_depth
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
-from symjax.perception.support import join_supported
+from symjax.perception.support import join_supported, table_footprint
 from symjax.perception.table_frame import in_table_frame
 from symjax.table import TablePlane
 
@@ -129,6 +129,10 @@ def _fill_holes(depth: np.ndarray, valid: np.ndarray, passes: int) -> np.ndarray
     return np.where(filled < big, filled, np.float32(0.0))
 
 
+def _shift(box: tuple[slice, slice], dr: int, dc: int) -> tuple[slice, slice]:
+    return slice(box[0].start + dr, box[0].stop + dr), slice(box[1].start + dc, box[1].stop + dc)
+
+
 def _enclosed(mask: np.ndarray, free: np.ndarray) -> np.ndarray:
     """The ``free`` pixels that ``mask`` encloses (holes of the mask), (H, W) bool."""
     from scipy.ndimage import binary_fill_holes
@@ -192,8 +196,8 @@ def _segment_depth(
         cut = None if colour is None else colour_creases(colour, kappa, cfg)
         lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa)
         if kappa is not None and lab.max() > 0:
-            pts = (rays[sl] * conn[sl][..., None]) @ R.T + t
-            lab = join_supported(lab, pts, height[sl], n, cfg, depth=conn[sl])
+            foot = table_footprint(lab, rays[sl], conn[sl], T, n)
+            lab = join_supported(lab, foot, height[sl], cfg, depth=conn[sl])
         lab[~valid[sl]] = -1
         lab[grid_outliers(depth[sl], rays[sl], lab, cfg)] = -1
         labels[sl] = lab
@@ -203,7 +207,8 @@ def _segment_depth(
     n_obj = int(labels.max()) + 1
     keep = np.full(max(n_obj, 1), -1, np.int32)
     found = []  # (label, its pixels' flat indices)
-    for k, box in enumerate(find_objects(labels + 1, max_label=n_obj)):
+    boxes = find_objects(labels + 1, max_label=n_obj)
+    for k, box in enumerate(boxes):
         if box is None:
             continue
         r, c = np.nonzero(labels[box] == k)
@@ -211,33 +216,44 @@ def _segment_depth(
         if len(ids) >= 10:
             found.append((k, ids))
     points = {k: world(ids) for k, ids in found}
-    claimed = np.full(hw, -1, np.int32)
+    claimed_ids = np.zeros(0, np.int64)
     if cfg.claim_dropouts_px > 0 and found and cand.any():
-        claimed[sl] = claim_dropouts(labels[sl], valid[sl], rays[sl] @ R.T, t, points, n,
-                                     float(table.offset), cfg.claim_dropouts_px)  # fmt: skip
+        crop_boxes = [None if b is None else _shift(b, -r0, -c0) for b in boxes]
+        claimed = claim_dropouts(labels[sl], valid[sl], rays[sl], T, points, n,
+                                 float(table.offset), cfg.claim_dropouts_px,
+                                 crop_boxes)  # fmt: skip
+        rr, cc = np.nonzero(claimed >= 0)
+        claimed_ids = (rr + r0) * hw[1] + (cc + c0)
+        claimed_by = claimed[rr, cc]
+    # Pixels an object's holes may take; per-object work stays on full-frame masks only where
+    # the Observation needs them (every full-frame pass costs ~1 ms at 1280 x 720).
+    free = valid & (labels == -1)
     for k, ids in found:
         m = np.zeros(hw, bool)
         m.reshape(-1)[ids] = True
-        mask = fill_mask(m | (claimed == k), cfg.mask_fill)
+        grown = m.copy()
+        if len(claimed_ids):
+            grown.reshape(-1)[claimed_ids[claimed_by == k]] = True
+        mask = fill_mask(grown, cfg.mask_fill)
         if cfg.object_holes:
-            hole = _enclosed(mask, valid & (labels == -1))
+            hole = _enclosed(mask, free)
             if hole.any():
                 labels[hole], m = k, m | hole
+                free &= ~hole
                 points[k] = np.concatenate([points[k], world(np.flatnonzero(hole))])
         keep[k] = len(objects)
-        objects.append(
-            Observation.create(points[k], camera, table, mask | m, np.where(m, depth, 0.0))
-        )
-    labels = np.where(labels >= 0, keep[np.maximum(labels, 0)], -1).astype(np.int32)
-    infos, notes = describe_objects(objects, labels, depth, table, cfg)
+        objects.append(Observation.create(points[k], camera, table, mask | m, depth * m))
+    labels = np.append(keep, np.int32(-1))[labels]  # -1 indexes the appended -1
+    boxes = find_objects(labels + 1, max_label=len(objects))
+    infos, notes = describe_objects(objects, labels, depth, table, cfg, boxes)
     # Neighbours in front hide part of an object: their pixels keep their depth outside its mask
     # so that the symmetry search does not take them for empty space (Eq. 3).
     objects = [
         dataclasses.replace(
             o,
             depth=np.where(
-                np.asarray(o.mask), o.depth, occluder_depth(labels, depth, i.occluded_by)
-            ).astype(np.float32),
+                np.asarray(o.mask), o.depth, occluder_depth(labels, depth, i.occluded_by, boxes)
+            ),
         )
         if i.occluded_by
         else o

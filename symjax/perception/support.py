@@ -21,8 +21,9 @@ import numpy as np
 
 from symjax.geometry import tangent_basis
 from symjax.perception.config import SegmentationConfig
+from symjax.perception.hull import convex_hull_2d
 
-__all__ = ["contacts", "join_supported", "relabel_by_size"]
+__all__ = ["contacts", "join_supported", "relabel_by_size", "table_footprint"]
 
 _FOOTPRINT_SLACK = 0.005  # m: a point may lie this far outside the support's footprint ...
 _ON_SUPPORT = 0.8  # ... and this share of the part's points must lie on it
@@ -37,11 +38,16 @@ def relabel_by_size(labels: np.ndarray) -> np.ndarray:
     n = int(labels.max(initial=-1)) + 1
     if n == 0:
         return labels
-    size = np.bincount(labels[labels >= 0], minlength=n)
+    return _by_size(np.bincount(labels[labels >= 0], minlength=n))[labels]
+
+
+def _by_size(size: np.ndarray) -> np.ndarray:
+    """Lookup table (K + 1,) from labels with ``size`` (K,) pixels to their rank by decreasing
+    size (ties in label order), -1 for empty labels and at index -1 (unlabelled pixels)."""
     order = np.flatnonzero(size)[np.argsort(-size[np.flatnonzero(size)], kind="stable")]
-    remap = np.full(n + 1, -1, np.int32)
+    remap = np.full(len(size) + 1, -1, np.int32)
     remap[order] = np.arange(len(order), dtype=np.int32)
-    return remap[labels]  # -1 indexes the last entry, which stays -1
+    return remap
 
 
 def contacts(
@@ -157,11 +163,35 @@ def _table_basis(normal) -> np.ndarray:
     return np.stack(tangent_basis(np.asarray(normal, np.float64)), 1)
 
 
+def table_footprint(
+    labels: np.ndarray, rays: np.ndarray, depth: np.ndarray, T_world_cam, normal
+) -> np.ndarray:
+    """Where the pixels' points stand on the table: their coordinates (H, W, 2) in a basis of
+    the table plane, metres, for the pixels with ``labels >= 0`` (0 elsewhere).
+
+    Args:
+        labels: (H, W) int parts, -1 none.
+        rays: (H, W, 3) camera-frame rays with unit z (point = depth * ray).
+        depth: (H, W) metres.
+        T_world_cam: (4, 4) camera pose.
+        normal: (3,) unit table normal, world frame.
+    """
+    T = np.asarray(T_world_cam, np.float64)
+    basis = _table_basis(normal)
+    r, c = np.nonzero(labels >= 0)
+    # Projected straight from the camera frame, and only where there are parts: the world
+    # points of the whole crop were the larger part of the work (a 720p frame: 25 -> 4 ms).
+    # Gathers by row and column: the inputs are often crops, which a flat view would copy.
+    cam = rays[r, c] * depth[r, c][:, None]
+    out = np.zeros((*labels.shape, 2))
+    out[r, c] = cam @ (T[:3, :3].T @ basis) + T[:3, 3] @ basis
+    return out
+
+
 def join_supported(
     labels: np.ndarray,
-    points: np.ndarray,
+    foot: np.ndarray,
     height: np.ndarray,
-    normal: np.ndarray,
     config: SegmentationConfig,
     depth: np.ndarray | None = None,
 ) -> np.ndarray:
@@ -169,9 +199,9 @@ def join_supported(
 
     Args:
         labels: (H, W) int32 parts, -1 none.
-        points: (H, W, 3) world points of the pixels, metres (used where ``labels >= 0``).
+        foot: (H, W, 2) the pixels' points in a basis of the table plane, metres (used where
+            ``labels >= 0``; :func:`table_footprint`).
         height: (H, W) height above the table, metres.
-        normal: (3,) table normal.
         config: ``support_height``, ``support_narrow``, ``depth_jump``.
         depth: (H, W) depth, metres: a narrow part joins only a part it meets without a depth
             step (under half ``depth_jump``); None = any part it touches.
@@ -179,7 +209,6 @@ def join_supported(
     Returns:
         (H, W) int32 labels, renumbered by decreasing size.
     """
-    import cv2
 
     n = int(labels.max(initial=-1)) + 1
     if n < 2:
@@ -189,11 +218,16 @@ def join_supported(
     # contact: pixel pairs on one surface; touch: all pairs, across depth steps too; rise: how
     # far above the part it meets a part is there.
     contact, touch, rise = contacts(labels, z, step, height)
-    basis = _table_basis(normal)
     flat = labels.ravel()
-    order = np.argsort(flat, kind="stable")
-    starts = np.searchsorted(flat[order], np.arange(n + 1))
-    foot_all = points.reshape(-1, 3) @ basis
+    # A stable sort of 16-bit keys is a radix sort: linear in the pixels.
+    # Each part's pixels in increasing order: a stable sort of the labelled pixels by label (of
+    # 16-bit keys, a radix sort: linear in the pixels).
+    sel = np.flatnonzero(flat >= 0)
+    keys = flat[sel]
+    order = sel[np.argsort(keys.astype(np.int16) if n < 2**15 else keys, kind="stable")]
+    count = np.bincount(keys, minlength=n)
+    starts = np.concatenate([[0], np.cumsum(count)])
+    foot_all = foot.reshape(-1, 2)
     hgt = height.ravel()
     # Per part: pixel indices, footprint (N, 2) and lowest height (5th percentile).
     parts = {}
@@ -235,8 +269,7 @@ def join_supported(
             if parts[j][2] >= low if low > config.support_height else len(foot) <= len(idx):
                 continue
             if j not in hulls:
-                sub = np.ascontiguousarray(foot[:: max(1, len(foot) // 4000)], np.float32)
-                hulls[j] = cv2.convexHull(sub)[:, 0].astype(np.float64)
+                hulls[j] = convex_hull_2d(foot[:: max(1, len(foot) // 4000)])
             if np.mean(_hull_distance(hulls[j], own) >= -_FOOTPRINT_SLACK) >= _ON_SUPPORT:
                 best = j
                 break
@@ -264,5 +297,6 @@ def join_supported(
                 mat[:, best] += mat[:, k]
                 mat[k], mat[:, k] = 0, 0
             del parts[k]
-    remap = np.append(owner, -1).astype(np.int32)
-    return relabel_by_size(remap[labels])
+    # Renumbered by the joined parts' sizes in one lookup (relabel_by_size of owner[labels]).
+    rank = _by_size(np.bincount(owner, weights=count, minlength=n).astype(np.int64))
+    return np.append(rank[owner], np.int32(-1))[labels]
