@@ -46,6 +46,15 @@ def _timed(fn, repeats: int) -> list[float]:
     return out
 
 
+def _interleaved(fns, repeats: int) -> list[list[float]]:
+    """Seconds per call of each of ``fns``, called in turn ``repeats`` times."""
+    out = [[] for _ in fns]
+    for _ in range(repeats):
+        for f, times in zip(fns, out, strict=True):
+            times.extend(_timed(f, 1))
+    return out
+
+
 def _iou_ok(scene, result) -> tuple[int, float]:
     """Objects found and the smallest IoU of a true object with its match (0 if unmatched)."""
     from symjax.perception.clutter_benchmark import match_ious
@@ -101,9 +110,16 @@ def _clutter_rows(args, default) -> list[dict]:
     for w, h, f in ((640, 480, 575.0), (1280, 720, 1150.0)):
         sc = clutter_scene(kinds, seed=seed, width=w, height=h, focal=f)
         res = segment(sc.depth, sc.camera, cfg)
-        runs = _timed(lambda s=sc: segment(s.depth, s.camera, cfg), args.repeats)
-        ref = _timed(lambda s=sc: segment(s.depth, s.camera, default), args.repeats)
-        coloured = _timed(lambda s=sc: segment(s.depth, s.camera, cfg, rgb=s.rgb), args.repeats)
+        # The three interleaved, a round at a time: a shared host's speed drifts by half within
+        # a minute, and the ratio to the reference should see the same host.
+        runs, ref, coloured = _interleaved(
+            [
+                lambda s=sc: segment(s.depth, s.camera, cfg),
+                lambda s=sc: segment(s.depth, s.camera, default),
+                lambda s=sc: segment(s.depth, s.camera, cfg, rgb=s.rgb),
+            ],
+            args.repeats,
+        )
         run_ms, ref_ms = 1000 * statistics.median(runs), 1000 * statistics.median(ref)
         floor = 150.0 if w == 640 else 300.0
         row = {

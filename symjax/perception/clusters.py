@@ -19,16 +19,6 @@ __all__ = ["cloud_clusters", "grid_outliers", "image_clusters", "statistical_out
 _N8 = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
-def _shifted(a: np.ndarray, dr: int, dc: int, fill) -> np.ndarray:
-    """``out[r, c] = a[r + dr, c + dc]`` (``fill`` outside)."""
-    out = np.full_like(a, fill)
-    H, W = a.shape[:2]
-    rs, re = max(0, -dr), min(H, H - dr)
-    cs, ce = max(0, -dc), min(W, W - dc)
-    out[rs:re, cs:ce] = a[rs + dr : re + dr, cs + dc : ce + dc]
-    return out
-
-
 def _jump(depth: np.ndarray, cfg: SegmentationConfig) -> np.ndarray:
     return cfg.depth_jump + cfg.depth_jump_rel * depth
 
@@ -76,8 +66,10 @@ def image_clusters(
 
     thr = _jump(depth, config)
     far_edge = np.zeros_like(candidate)
+    H, W = depth.shape
+    padded = np.pad(depth, 1)  # neighbours as views: no shifted copies
     for dr, dc in ((0, 1), (1, 0), (0, -1), (-1, 0)):
-        nb = _shifted(depth, dr, dc, 0.0)
+        nb = padded[1 + dr : H + 1 + dr, 1 + dc : W + 1 + dc]
         far_edge |= (nb > 0) & (depth - nb > thr)
     if crease is not None:
         far_edge |= crease

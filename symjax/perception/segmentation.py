@@ -122,11 +122,16 @@ def _fill_holes(depth: np.ndarray, valid: np.ndarray, passes: int) -> np.ndarray
     big = np.float32(1e9)
     filled = np.where(valid, depth, big)
     kernel = np.ones((3, 3), np.uint8)
+    # Only the pixels still empty change: a pass updates them, not the whole frame.
+    empty = np.flatnonzero(~valid)
+    flat = filled.reshape(-1)
     for _ in range(passes):
         # Erosion of a float image is the 3x3 minimum: the nearest surface around a hole.
         nearest = cv2.erode(filled, kernel, borderType=cv2.BORDER_REPLICATE)
-        filled = np.where(filled < big, filled, nearest)
-    return np.where(filled < big, filled, np.float32(0.0))
+        flat[empty] = nearest.reshape(-1)[empty]
+        empty = empty[flat[empty] >= big]
+    flat[empty] = 0.0
+    return filled
 
 
 def _shift(box: tuple[slice, slice], dr: int, dc: int) -> tuple[slice, slice]:
