@@ -13,7 +13,13 @@ import numpy as np
 from symjax.perception.bridges import grow_cores, rejoin_smooth, thin_bridges
 from symjax.perception.config import SegmentationConfig
 
-__all__ = ["cloud_clusters", "grid_outliers", "image_clusters", "statistical_outliers"]
+__all__ = [
+    "cloud_clusters",
+    "grid_outliers",
+    "image_clusters",
+    "neighbour_distances",
+    "statistical_outliers",
+]
 
 # Offsets (drow, dcol) of the 8 pixel neighbours.
 _N8 = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
@@ -151,31 +157,20 @@ def image_clusters(
     return labels
 
 
-def grid_outliers(
-    depth: np.ndarray, rays: np.ndarray, labels: np.ndarray, config: SegmentationConfig
-) -> np.ndarray:
-    """Statistical outlier removal on the image grid (the 8 pixel neighbours as the k nearest).
-
-    Distances are rigid-invariant, so points are taken in the camera frame.
+def neighbour_distances(depth: np.ndarray, rays: np.ndarray) -> dict:
+    """Distances (m) between the points of neighbouring pixels, for :func:`grid_outliers`.
 
     Args:
         depth: (H, W) metres.
         rays: (H, W, 3) camera-frame rays with unit z (point = depth * ray).
-        labels: (H, W) int labels, -1 = not an object.
-        config: ``sor_std_ratio``.
 
     Returns:
-        bool (H, W): object pixels whose mean distance to their same-label neighbours exceeds the
-        mean over all object pixels by ``sor_std_ratio`` standard deviations, or that have no
-        same-label neighbour.
+        ``{(dr, dc): (H, W)}`` for the four offsets ``(0, 1), (1, -1), (1, 0), (1, 1)``: the
+        distance from each pixel's point to that of the pixel at the offset (to the origin
+        beyond the border). It does not depend on the labels, so it can run alongside the
+        segmentation that makes them.
     """
-    H, W = labels.shape
-    obj = labels >= 0
-    if not obj.any():
-        return np.zeros((H, W), bool)
-    # A one-pixel frame of non-object pixels; whole shifted planes, not gathers of the object
-    # pixels' neighbours: slices stream through memory (a 1280 x 720 frame: 47 -> 20 ms).
-    lab = np.pad(labels, 1, constant_values=-1)
+    H, W = depth.shape
     xyz = []
     for k in range(3):
         a = np.zeros((H + 2, W + 2), np.result_type(rays.dtype, depth.dtype))
@@ -195,6 +190,41 @@ def grid_outliers(
                 d *= d
                 sq += d
         half[dr, dc] = np.sqrt(sq, out=sq)
+    return half
+
+
+def grid_outliers(
+    depth: np.ndarray,
+    rays: np.ndarray,
+    labels: np.ndarray,
+    config: SegmentationConfig,
+    distances: dict | None = None,
+) -> np.ndarray:
+    """Statistical outlier removal on the image grid (the 8 pixel neighbours as the k nearest).
+
+    Distances are rigid-invariant, so points are taken in the camera frame.
+
+    Args:
+        depth: (H, W) metres.
+        rays: (H, W, 3) camera-frame rays with unit z (point = depth * ray).
+        labels: (H, W) int labels, -1 = not an object.
+        config: ``sor_std_ratio``.
+        distances: :func:`neighbour_distances` of ``depth`` and ``rays``, when computed
+            already.
+
+    Returns:
+        bool (H, W): object pixels whose mean distance to their same-label neighbours exceeds the
+        mean over all object pixels by ``sor_std_ratio`` standard deviations, or that have no
+        same-label neighbour.
+    """
+    H, W = labels.shape
+    obj = labels >= 0
+    if not obj.any():
+        return np.zeros((H, W), bool)
+    # A one-pixel frame of non-object pixels; whole shifted planes, not gathers of the object
+    # pixels' neighbours: slices stream through memory (a 1280 x 720 frame: 47 -> 20 ms).
+    lab = np.pad(labels, 1, constant_values=-1)
+    half = neighbour_distances(depth, rays) if distances is None else distances
     total = np.zeros((H, W), np.float32)
     count = np.zeros((H, W), np.int32)
     dist = np.zeros((H + 2, W + 2), np.float32)

@@ -11,6 +11,8 @@ and its sign tells valleys (the pixel lies beyond the chord of its neighbours) f
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 __all__ = ["colour_creases", "concavity", "crease_concavity", "crease_mask", "lab_image"]
@@ -73,22 +75,31 @@ def concavity(
         return a[s + dr * s : s + dr * s + H, s + dc * s : s + dc * s + W]
 
     w2 = 2.0 * w
-    # The largest second difference per span (axes, diagonals), scaled once per span: the
-    # scale is positive, so the largest product is the product of the largest difference.
-    top: dict = {}
-    for dr, dc in _DIRECTIONS:
-        a, b = at(wp, -dr, -dc), at(wp, dr, dc)
-        span = scale_px * (1.0 if dr == 0 or dc == 0 else np.sqrt(2.0))
-        ok = (a > 0) & (b > 0)
-        if np.isfinite(max_step):
-            for zn in (at(zp, -dr, -dc), at(zp, dr, dc)):
-                step = zn - z
-                np.abs(step, out=step)
-                ok &= step < max_step
-        d2 = a + b
-        d2 -= w2
-        d2 *= ok
-        top[span] = d2 if span not in top else np.maximum(top[span], d2, out=top[span])
+
+    def largest(directions) -> np.ndarray:
+        """The largest second difference over ``directions`` of one span."""
+        top = None
+        for dr, dc in directions:
+            a, b = at(wp, -dr, -dc), at(wp, dr, dc)
+            ok = (a > 0) & (b > 0)
+            if np.isfinite(max_step):
+                for zn in (at(zp, -dr, -dc), at(zp, dr, dc)):
+                    step = zn - z
+                    np.abs(step, out=step)
+                    ok &= step < max_step
+            d2 = a + b
+            d2 -= w2
+            d2 *= ok
+            top = d2 if top is None else np.maximum(top, d2, out=top)
+        return top
+
+    # The largest second difference per span (axes, diagonals; the diagonals on a second core),
+    # scaled once per span: the scale is positive, so the largest product is the product of the
+    # largest difference.
+    with ThreadPoolExecutor(1) as pool:
+        diagonal = pool.submit(largest, _DIRECTIONS[2:])
+        top = {float(scale_px): largest(_DIRECTIONS[:2])}
+        top[scale_px * np.sqrt(2.0)] = diagonal.result()
     best = np.full(z.shape, -np.inf, np.float32)
     for span, d2 in top.items():
         # Sagitta z^2 * d2w / 2 over the half span z * span / f.

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from symjax._threads import map_in_threads
 from symjax.perception.hull import convex_hull_2d
 
 __all__ = ["claim_dropouts"]
@@ -111,13 +112,16 @@ def claim_dropouts(
     # Each object's box from one pass over the labels, not a full-frame scan per object.
     if boxes is None:
         boxes = find_objects(np.maximum(labels + 1, 0), max_label=int(labels.max(initial=-1)) + 1)
-    for k, p in points.items():
+
+    def entries(item):
+        """The free pixels near object k and where their rays enter its column (or None)."""
+        k, p = item
         box = boxes[k] if 0 <= k < len(boxes) else None
         if len(p) < 3 or box is None:
-            continue
+            return None
         hull, top = _column(np.asarray(p, np.float64), basis, offset)
         if len(hull) < 3 or top <= 0:
-            continue
+            return None
         # Within max_px of this object in the image: its box and margin only.
         r0, r1 = max(box[0].start - max_px, 0), min(box[0].stop + max_px, H)
         c0, c1 = max(box[1].start - max_px, 0), min(box[1].stop + max_px, W)
@@ -125,9 +129,16 @@ def claim_dropouts(
         near = cv2.distanceTransform((labels[crop] != k).astype(np.uint8), cv2.DIST_L2, 3)
         rr, cc = np.nonzero(free[crop] & (near <= max_px))
         if len(rr) == 0:
-            continue
+            return None
         rr, cc = rr + r0, cc + c0
-        s = _entry(hull, top, o, rays[rr, cc].astype(np.float64) @ cam_to_uvh)
+        return rr, cc, _entry(hull, top, o, rays[rr, cc].astype(np.float64) @ cam_to_uvh)
+
+    # The objects' columns side by side in threads; the nearest entry wins, in object order.
+    items = list(points.items())
+    for (k, _), hit in zip(items, map_in_threads(entries, items), strict=True):
+        if hit is None:
+            continue
+        rr, cc, s = hit
         take = s < best[rr, cc]
         best[rr[take], cc[take]] = s[take]
         out[rr[take], cc[take]] = k

@@ -9,7 +9,9 @@ import numpy as np
 from symjax.perception.config import SegmentationConfig
 from symjax.table import TablePlane
 
-__all__ = ["ObjectInfo", "describe_objects", "occluder_depth"]
+__all__ = ["EMPTY_TABLE", "ObjectInfo", "describe_object", "describe_objects", "occluder_depth"]
+
+EMPTY_TABLE = "no objects found above the table (empty table)"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,46 +90,55 @@ def _touches_border(labels: np.ndarray, k: int, box, px: int) -> bool:
     return bool((near & (labels[box] == k)).any())
 
 
+def describe_object(
+    k: int, obs, labels, depth, table, cfg: SegmentationConfig, box
+) -> tuple[ObjectInfo, list[str]]:
+    """:class:`ObjectInfo` of object ``k`` (its observation ``obs``, its bounding ``box`` in
+    ``labels`` or None) and the notes for the user about it."""
+    pts = obs.valid_points().astype(np.float64)
+    seen = box is not None and bool((labels[box] == k).any())
+    near, occ = _relations(labels, depth, k, box, cfg) if seen else ((), ())
+    extent = _footprint_extent(pts, table)
+    info = ObjectInfo(
+        n_points=len(pts),
+        centroid=pts.mean(axis=0),
+        extent=extent,
+        touches_border=seen and _touches_border(labels, k, box, cfg.border_px),
+        neighbours=near,
+        occluded_by=occ,
+        maybe_merged=extent > cfg.max_object_extent,
+    )
+    notes = []
+    if info.touches_border:
+        notes.append(f"object {k} is cut by the image border; it may extend beyond the view")
+    if occ:
+        notes.append(f"object {k} is partly hidden by object(s) {list(occ)} in front of it")
+    elif near:
+        notes.append(f"object {k} touches object(s) {list(near)} in the image")
+    if info.maybe_merged:
+        notes.append(
+            f"object {k} is {extent:.2f} m wide (> max_object_extent "
+            f"{cfg.max_object_extent} m): it may be several touching objects"
+        )
+    return info, notes
+
+
 def describe_objects(
-    objects, labels, depth, table, cfg: SegmentationConfig, boxes=None
+    objects, labels, depth, table, cfg: SegmentationConfig
 ) -> tuple[tuple[ObjectInfo, ...], tuple[str, ...]]:
-    """One :class:`ObjectInfo` per object and the notes for the user; ``boxes`` are the
-    objects' bounding boxes in ``labels`` (``scipy.ndimage.find_objects(labels + 1)``), found
-    here when not given."""
+    """One :class:`ObjectInfo` per object and the notes for the user."""
     from scipy.ndimage import find_objects
 
     infos, notes = [], []
-    if boxes is None:
-        boxes = find_objects(labels + 1, max_label=len(objects))
+    boxes = find_objects(labels + 1, max_label=len(objects))
     for k, obs in enumerate(objects):
-        pts = obs.valid_points().astype(np.float64)
-        box = boxes[k] if k < len(boxes) else None
-        seen = box is not None and bool((labels[box] == k).any())
-        near, occ = _relations(labels, depth, k, box, cfg) if seen else ((), ())
-        extent = _footprint_extent(pts, table)
-        info = ObjectInfo(
-            n_points=len(pts),
-            centroid=pts.mean(axis=0),
-            extent=extent,
-            touches_border=seen and _touches_border(labels, k, box, cfg.border_px),
-            neighbours=near,
-            occluded_by=occ,
-            maybe_merged=extent > cfg.max_object_extent,
+        info, said = describe_object(
+            k, obs, labels, depth, table, cfg, boxes[k] if k < len(boxes) else None
         )
         infos.append(info)
-        if info.touches_border:
-            notes.append(f"object {k} is cut by the image border; it may extend beyond the view")
-        if occ:
-            notes.append(f"object {k} is partly hidden by object(s) {list(occ)} in front of it")
-        elif near:
-            notes.append(f"object {k} touches object(s) {list(near)} in the image")
-        if info.maybe_merged:
-            notes.append(
-                f"object {k} is {extent:.2f} m wide (> max_object_extent "
-                f"{cfg.max_object_extent} m): it may be several touching objects"
-            )
+        notes += said
     if not objects:
-        notes.append("no objects found above the table (empty table)")
+        notes.append(EMPTY_TABLE)
     return tuple(infos), tuple(notes)
 
 

@@ -9,20 +9,39 @@ cluster an observation with its own mask and depth image in the camera's image.
 from __future__ import annotations
 
 import dataclasses
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
 
-from symjax._threads import serial_blas
+from symjax._threads import map_in_threads, serial_blas
 from symjax.camera import Camera
 from symjax.errors import ConfigError, EmptyInputError, InvalidInputError, ShapeError
-from symjax.geometry import pixel_rays
 from symjax.observation import Observation, fill_mask
-from symjax.perception.clusters import cloud_clusters, grid_outliers, image_clusters
+from symjax.perception.clusters import (
+    cloud_clusters,
+    grid_outliers,
+    image_clusters,
+    neighbour_distances,
+)
 from symjax.perception.config import SegmentationConfig
 from symjax.perception.creases import colour_creases, crease_concavity, crease_mask, lab_image
+from symjax.perception.depth_pixels import (
+    box_shift,
+    enclosed,
+    fill_holes,
+    in_workspace,
+    pixel_rays_of,
+    table_hull,
+)
 from symjax.perception.dropouts import claim_dropouts
-from symjax.perception.object_info import ObjectInfo, describe_objects, occluder_depth
+from symjax.perception.object_info import (
+    EMPTY_TABLE,
+    ObjectInfo,
+    describe_object,
+    describe_objects,
+    occluder_depth,
+)
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
 from symjax.perception.support import join_supported, table_footprint
 from symjax.perception.table_frame import in_table_frame
@@ -76,79 +95,6 @@ class TableScene:
         return not self.objects
 
 
-_RAYS_CACHE: dict[tuple, np.ndarray] = {}
-
-
-def _rays(camera: Camera) -> np.ndarray:
-    """Camera-frame rays (H, W, 3) with unit z, cached per intrinsics (frames share a camera)."""
-    K = np.asarray(camera.K, np.float64)
-    key = (K.tobytes(), camera.width, camera.height)
-    if key not in _RAYS_CACHE:
-        if len(_RAYS_CACHE) > 8:
-            _RAYS_CACHE.clear()
-        _RAYS_CACHE[key] = pixel_rays(K, camera.height, camera.width).astype(np.float32)
-    return _RAYS_CACHE[key]
-
-
-def _in_workspace(points: np.ndarray, cfg: SegmentationConfig) -> np.ndarray | bool:
-    if cfg.workspace_min is None:
-        return True
-    lo = np.asarray(cfg.workspace_min, np.float32)
-    hi = np.asarray(cfg.workspace_max, np.float32)
-    return np.all((points >= lo) & (points <= hi), axis=-1)
-
-
-def _table_hull(on_table: np.ndarray) -> np.ndarray:
-    """Convex hull (H, W) bool of the table pixels, from each row's outermost table pixels."""
-    import cv2
-
-    rows = np.flatnonzero(on_table.any(axis=1))
-    W = on_table.shape[1]
-    sub = on_table[rows]
-    left = np.argmax(sub, axis=1)
-    right = W - 1 - np.argmax(sub[:, ::-1], axis=1)
-    pts = np.concatenate([np.stack([left, rows], 1), np.stack([right, rows], 1)]).astype(np.int32)
-    hull = np.zeros(on_table.shape, np.uint8)
-    cv2.fillConvexPoly(hull, cv2.convexHull(pts), 1)
-    return hull > 0
-
-
-def _fill_holes(depth: np.ndarray, valid: np.ndarray, passes: int) -> np.ndarray:
-    """Depth with small holes filled by the nearest (smallest) neighbouring depth."""
-    import cv2
-
-    if passes == 0 or valid.all():
-        return depth
-    big = np.float32(1e9)
-    filled = np.where(valid, depth, big)
-    kernel = np.ones((3, 3), np.uint8)
-    # Only the pixels still empty change: a pass updates them, not the whole frame.
-    empty = np.flatnonzero(~valid)
-    flat = filled.reshape(-1)
-    for _ in range(passes):
-        # Erosion of a float image is the 3x3 minimum: the nearest surface around a hole.
-        nearest = cv2.erode(filled, kernel, borderType=cv2.BORDER_REPLICATE)
-        flat[empty] = nearest.reshape(-1)[empty]
-        empty = empty[flat[empty] >= big]
-    flat[empty] = 0.0
-    return filled
-
-
-def _shift(box: tuple[slice, slice], dr: int, dc: int) -> tuple[slice, slice]:
-    return slice(box[0].start + dr, box[0].stop + dr), slice(box[1].start + dc, box[1].stop + dc)
-
-
-def _enclosed(mask: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """The ``free`` pixels that ``mask`` encloses (holes of the mask), (H, W) bool."""
-    from scipy.ndimage import binary_fill_holes
-
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    sl = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
-    out = np.zeros_like(mask)
-    out[sl] = binary_fill_holes(mask[sl]) & ~mask[sl] & free[sl]
-    return out
-
-
 def _segment_depth(
     depth: np.ndarray, camera: Camera, cfg: SegmentationConfig, rgb=None
 ) -> TableScene:
@@ -165,7 +111,7 @@ def _segment_depth(
         raise EmptyInputError("the depth image has fewer than 3 measured pixels")
     T = np.asarray(camera.T_world_cam, np.float32)
     R, t = T[:3, :3], T[:3, 3]
-    rays = _rays(camera)
+    rays = pixel_rays_of(camera)
     flat_rays, flat_depth = rays.reshape(-1, 3), depth.reshape(-1)
 
     def world(ids):
@@ -174,15 +120,17 @@ def _segment_depth(
     # Only the subsamples are back-projected for the plane fit; heights of all pixels follow
     # from the plane expressed in the camera frame.
     rng = np.random.default_rng(cfg.seed)
-    sample, refine = subsample(idx, cfg, rng)
-    table = ransac_plane(world(sample), world(refine), cfg, np.asarray(camera.position), rng)
+    with ThreadPoolExecutor(1) as pool:  # the holes filled on a second core meanwhile
+        conn = pool.submit(fill_holes, depth, valid, cfg.fill_holes_px)
+        sample, refine = subsample(idx, cfg, rng)
+        table = ransac_plane(world(sample), world(refine), cfg, np.asarray(camera.position), rng)
+        conn = conn.result()
     n = np.asarray(table.normal, np.float32)
-    conn = _fill_holes(depth, valid, cfg.fill_holes_px)
     height = conn * (rays @ (R.T @ n)) + np.float32(float(n @ t) + float(table.offset))
     on_table = valid & (np.abs(height) < cfg.inlier_threshold)
     cand = (conn > 0) & (height > cfg.grow_height) & (height < cfg.max_height)
     if cfg.table_hull and on_table.any():
-        cand &= _table_hull(on_table)
+        cand &= table_hull(on_table)
     labels = np.full(hw, -1, np.int32)
     if cand.any():
         # Work on the candidates' bounding box (plus a pixel for the depth steps) only.
@@ -192,23 +140,29 @@ def _segment_depth(
         sl = (slice(r0, r1), slice(c0, c1))
         if cfg.workspace_min is not None:
             ids = np.ravel_multi_index(np.nonzero(cand), hw)
-            cand.reshape(-1)[ids] = _in_workspace(world(ids), cfg)
-        kappa = crease = None
-        if cfg.crease_threshold is not None:
-            kappa = crease_concavity(conn[sl], float(np.sqrt(camera.K[0, 0] * camera.K[1, 1])), cfg)
-            crease = crease_mask(kappa, cfg)
-        colour = None if rgb is None or kappa is None else lab_image(rgb[sl])
-        cut = None if colour is None else colour_creases(colour, kappa, cfg)
-        lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa)
-        if kappa is not None and lab.max() > 0:
-            foot = table_footprint(lab, rays[sl], conn[sl], T, n)
-            lab = join_supported(lab, foot, height[sl], cfg, depth=conn[sl])
-        lab[~valid[sl]] = -1
-        lab[grid_outliers(depth[sl], rays[sl], lab, cfg)] = -1
+            cand.reshape(-1)[ids] = in_workspace(world(ids), cfg)
+        # What does not depend on the labels runs on a second core while this one segments:
+        # numpy's and OpenCV's loops release the GIL (segment() used one core of two).
+        with ThreadPoolExecutor(1) as pool:
+            crease_on = cfg.crease_threshold is not None
+            colour = pool.submit(lab_image, rgb[sl]) if rgb is not None and crease_on else None
+            distances = pool.submit(neighbour_distances, depth[sl], rays[sl])
+            kappa = crease = None
+            if crease_on:
+                focal = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1]))
+                kappa = crease_concavity(conn[sl], focal, cfg)
+                crease = crease_mask(kappa, cfg)
+            colour = None if colour is None else colour.result()
+            cut = None if colour is None else colour_creases(colour, kappa, cfg)
+            lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa)
+            if kappa is not None and lab.max() > 0:
+                foot = table_footprint(lab, rays[sl], conn[sl], T, n)
+                lab = join_supported(lab, foot, height[sl], cfg, depth=conn[sl])
+            lab[~valid[sl]] = -1
+            lab[grid_outliers(depth[sl], rays[sl], lab, cfg, distances.result())] = -1
         labels[sl] = lab
     from scipy.ndimage import find_objects
 
-    objects = []
     n_obj = int(labels.max()) + 1
     keep = np.full(max(n_obj, 1), -1, np.int32)
     found = []  # (label, its pixels' flat indices)
@@ -223,47 +177,55 @@ def _segment_depth(
     points = {k: world(ids) for k, ids in found}
     claimed_ids = np.zeros(0, np.int64)
     if cfg.claim_dropouts_px > 0 and found and cand.any():
-        crop_boxes = [None if b is None else _shift(b, -r0, -c0) for b in boxes]
+        crop_boxes = [None if b is None else box_shift(b, -r0, -c0) for b in boxes]
         claimed = claim_dropouts(labels[sl], valid[sl], rays[sl], T, points, n,
                                  float(table.offset), cfg.claim_dropouts_px,
                                  crop_boxes)  # fmt: skip
         rr, cc = np.nonzero(claimed >= 0)
         claimed_ids = (rr + r0) * hw[1] + (cc + c0)
         claimed_by = claimed[rr, cc]
-    # Pixels an object's holes may take; per-object work stays on full-frame masks only where
-    # the Observation needs them (every full-frame pass costs ~1 ms at 1280 x 720).
-    free = valid & (labels == -1)
-    for k, ids in found:
+
+    # Masks of the objects side by side in threads; then, one object after the other, the free
+    # pixels each mask encloses (no longer free for the next).
+    def grown_mask(item):
+        k, ids = item
         m = np.zeros(hw, bool)
         m.reshape(-1)[ids] = True
         grown = m.copy()
         if len(claimed_ids):
             grown.reshape(-1)[claimed_ids[claimed_by == k]] = True
-        mask = fill_mask(grown, cfg.mask_fill)
+        return m, fill_mask(grown, cfg.mask_fill)
+
+    made = []  # (points, mask, measured pixels)
+    free = valid & (labels == -1)
+    for (k, _), (m, mask) in zip(found, map_in_threads(grown_mask, found), strict=True):
         if cfg.object_holes:
-            hole = _enclosed(mask, free)
+            hole = enclosed(mask, free)
             if hole.any():
                 labels[hole], m = k, m | hole
                 free &= ~hole
                 points[k] = np.concatenate([points[k], world(np.flatnonzero(hole))])
-        keep[k] = len(objects)
-        objects.append(Observation.create(points[k], camera, table, mask | m, depth * m))
+        keep[k] = len(made)
+        made.append((points[k], mask | m, m))
     labels = np.append(keep, np.int32(-1))[labels]  # -1 indexes the appended -1
-    boxes = find_objects(labels + 1, max_label=len(objects))
-    infos, notes = describe_objects(objects, labels, depth, table, cfg, boxes)
-    # Neighbours in front hide part of an object: their pixels keep their depth outside its mask
-    # so that the symmetry search does not take them for empty space (Eq. 3).
-    objects = [
-        dataclasses.replace(
-            o,
-            depth=np.where(
-                np.asarray(o.mask), o.depth, occluder_depth(labels, depth, i.occluded_by, boxes)
-            ),
-        )
-        if i.occluded_by
-        else o
-        for o, i in zip(objects, infos, strict=True)
-    ]
+    boxes = find_objects(labels + 1, max_label=len(made))
+
+    def finish(i: int):
+        p, mask, m = made[i]
+        obs = Observation.create(p, camera, table, mask, depth * m)
+        info, notes = describe_object(i, obs, labels, depth, table, cfg, boxes[i])
+        if info.occluded_by:
+            # Neighbours in front hide part of the object: their pixels keep their depth
+            # outside its mask, so that the symmetry search does not take them for empty
+            # space (Eq. 3).
+            occ = occluder_depth(labels, depth, info.occluded_by, boxes)
+            obs = dataclasses.replace(obs, depth=np.where(mask, obs.depth, occ))
+        return obs, info, notes
+
+    done = map_in_threads(finish, range(len(made)))
+    objects = [obs for obs, _, _ in done]
+    infos = tuple(info for _, info, _ in done)
+    notes = tuple(n for _, _, said in done for n in said) + (() if made else (EMPTY_TABLE,))
     return TableScene(table, tuple(objects), infos, labels, on_table, notes)
 
 
@@ -284,7 +246,7 @@ def _segment_cloud(
     origin = np.asarray(camera.position) if camera is not None else np.asarray(viewpoint)
     table, inliers = fit_table_plane(p, cfg, viewpoint=origin)
     height = p @ np.asarray(table.normal) + float(table.offset)
-    cand = (height > cfg.grow_height) & (height < cfg.max_height) & _in_workspace(p, cfg)
+    cand = (height > cfg.grow_height) & (height < cfg.max_height) & in_workspace(p, cfg)
     idx = np.flatnonzero(cand)
     lab = cloud_clusters(p[idx], height[idx], cfg)
     objects = []

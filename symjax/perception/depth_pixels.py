@@ -1,0 +1,86 @@
+"""Pixel-level steps of a depth frame's segmentation: viewing rays, holes, the table's extent,
+the pixels an object's mask encloses."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from symjax.camera import Camera
+from symjax.geometry import pixel_rays
+from symjax.perception.config import SegmentationConfig
+
+__all__ = ["box_shift", "enclosed", "fill_holes", "in_workspace", "pixel_rays_of", "table_hull"]
+
+_RAYS_CACHE: dict[tuple, np.ndarray] = {}
+
+
+def pixel_rays_of(camera: Camera) -> np.ndarray:
+    """Camera-frame rays (H, W, 3) with unit z, cached per intrinsics (frames share a camera)."""
+    K = np.asarray(camera.K, np.float64)
+    key = (K.tobytes(), camera.width, camera.height)
+    if key not in _RAYS_CACHE:
+        if len(_RAYS_CACHE) > 8:
+            _RAYS_CACHE.clear()
+        _RAYS_CACHE[key] = pixel_rays(K, camera.height, camera.width).astype(np.float32)
+    return _RAYS_CACHE[key]
+
+
+def in_workspace(points: np.ndarray, cfg: SegmentationConfig) -> np.ndarray | bool:
+    """Which points (..., 3) lie in the configured workspace box (True when there is none)."""
+    if cfg.workspace_min is None:
+        return True
+    lo = np.asarray(cfg.workspace_min, np.float32)
+    hi = np.asarray(cfg.workspace_max, np.float32)
+    return np.all((points >= lo) & (points <= hi), axis=-1)
+
+
+def table_hull(on_table: np.ndarray) -> np.ndarray:
+    """Convex hull (H, W) bool of the table pixels, from each row's outermost table pixels."""
+    import cv2
+
+    rows = np.flatnonzero(on_table.any(axis=1))
+    W = on_table.shape[1]
+    sub = on_table[rows]
+    left = np.argmax(sub, axis=1)
+    right = W - 1 - np.argmax(sub[:, ::-1], axis=1)
+    pts = np.concatenate([np.stack([left, rows], 1), np.stack([right, rows], 1)]).astype(np.int32)
+    hull = np.zeros(on_table.shape, np.uint8)
+    cv2.fillConvexPoly(hull, cv2.convexHull(pts), 1)
+    return hull > 0
+
+
+def fill_holes(depth: np.ndarray, valid: np.ndarray, passes: int) -> np.ndarray:
+    """Depth with small holes filled by the nearest (smallest) neighbouring depth."""
+    import cv2
+
+    if passes == 0 or valid.all():
+        return depth
+    big = np.float32(1e9)
+    filled = np.where(valid, depth, big)
+    kernel = np.ones((3, 3), np.uint8)
+    # Only the pixels still empty change: a pass updates them, not the whole frame.
+    empty = np.flatnonzero(~valid)
+    flat = filled.reshape(-1)
+    for _ in range(passes):
+        # Erosion of a float image is the 3x3 minimum: the nearest surface around a hole.
+        nearest = cv2.erode(filled, kernel, borderType=cv2.BORDER_REPLICATE)
+        flat[empty] = nearest.reshape(-1)[empty]
+        empty = empty[flat[empty] >= big]
+    flat[empty] = 0.0
+    return filled
+
+
+def box_shift(box: tuple[slice, slice], dr: int, dc: int) -> tuple[slice, slice]:
+    """A bounding box (row and column slices) moved by ``(dr, dc)`` pixels."""
+    return slice(box[0].start + dr, box[0].stop + dr), slice(box[1].start + dc, box[1].stop + dc)
+
+
+def enclosed(mask: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """The ``free`` pixels that ``mask`` encloses (holes of the mask), (H, W) bool."""
+    from scipy.ndimage import binary_fill_holes
+
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    sl = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    out = np.zeros_like(mask)
+    out[sl] = binary_fill_holes(mask[sl]) & ~mask[sl] & free[sl]
+    return out
