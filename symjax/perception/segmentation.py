@@ -175,7 +175,7 @@ def _segment_depth(
         if len(ids) >= 10:
             found.append((k, ids))
     points = {k: world(ids) for k, ids in found}
-    claimed_ids = np.zeros(0, np.int64)
+    claimed_ids, claimed_by = np.zeros(0, np.int64), np.zeros(0, np.int32)  # pixel, object
     if cfg.claim_dropouts_px > 0 and found and cand.any():
         crop_boxes = [None if b is None else box_shift(b, -r0, -c0) for b in boxes]
         claimed = claim_dropouts(labels[sl], valid[sl], rays[sl], T, points, n,
