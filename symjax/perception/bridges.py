@@ -50,9 +50,8 @@ def thin_bridges(
         return rim, component
     _, lab = cv2.connectedComponents(core.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S)
     # Each core lies inside one component (erosion only removes pixels).
-    rows, cols = np.nonzero(eroded)
     parent = np.zeros(m, np.int64)
-    parent[sub[rows, cols]] = lab[rows, cols]
+    parent[sub[eroded]] = lab[eroded]
     comps, counts = np.unique(parent[big], return_counts=True)
     split = np.isin(lab, comps[counts >= 2])
     if split.any():

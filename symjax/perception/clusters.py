@@ -137,7 +137,8 @@ def image_clusters(
         while len(alive) and len(order):
             # Only pixels next to a labelled one can take a label in this pass.
             nl = lab[nb_all[alive]]
-            front = np.flatnonzero((nl >= 0).any(axis=1))
+            # A row of 8 flags is one 8-byte word: any() over rows without a short-axis reduction.
+            front = np.flatnonzero((nl >= 0).view(np.uint64).ravel())
             fr = alive[front]
             nl = nl[front]
             ok = nl >= 0

@@ -76,11 +76,21 @@ def box_shift(box: tuple[slice, slice], dr: int, dc: int) -> tuple[slice, slice]
 
 
 def enclosed(mask: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """The ``free`` pixels that ``mask`` encloses (holes of the mask), (H, W) bool."""
-    from scipy.ndimage import binary_fill_holes
+    """The ``free`` pixels that ``mask`` encloses (holes of the mask), (H, W) bool.
+
+    ``scipy.ndimage.binary_fill_holes`` within the mask's bounding box, as OpenCV's connected
+    components: the pixels off the mask that no 4-connected path off the mask joins to the
+    box's edge (the same pixels; scipy grows them by repeated dilation, ~10x slower).
+    """
+    import cv2
 
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     sl = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    off = ~mask[sl]
+    n, lab = cv2.connectedComponents(off.astype(np.uint8), connectivity=4, ltype=cv2.CV_32S)
+    hole = np.ones(n, bool)
+    hole[0] = False  # the mask itself
+    hole[lab[0]] = hole[lab[-1]] = hole[lab[:, 0]] = hole[lab[:, -1]] = False
     out = np.zeros_like(mask)
-    out[sl] = binary_fill_holes(mask[sl]) & ~mask[sl] & free[sl]
+    out[sl] = hole[lab] & free[sl]
     return out

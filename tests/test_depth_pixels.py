@@ -1,0 +1,54 @@
+"""symjax.perception.depth_pixels: enclosed pixels and filled holes against plain references."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.ndimage import binary_fill_holes
+
+from symjax.perception.depth_pixels import enclosed, fill_holes
+
+
+def _rings(rng: np.random.Generator) -> np.ndarray:
+    H, W = int(rng.integers(3, 60)), int(rng.integers(3, 60))
+    m = np.zeros((H, W), np.uint8)
+    for _ in range(int(rng.integers(1, 5))):
+        centre = (int(rng.integers(0, W)), int(rng.integers(0, H)))
+        cv2.circle(m, centre, int(rng.integers(1, 20)), 1, int(rng.integers(1, 4)))
+    m = m.astype(bool) | (rng.random((H, W)) < rng.uniform(0.0, 0.3))
+    m[int(rng.integers(0, H)), int(rng.integers(0, W))] = True  # never empty
+    return m
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_enclosed_is_scipys_fill_holes_in_the_masks_box(seed):
+    rng = np.random.default_rng(seed)
+    mask = _rings(rng)
+    free = rng.random(mask.shape) < 0.8
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    want = np.zeros_like(mask)
+    want[box] = binary_fill_holes(mask[box]) & ~mask[box] & free[box]
+    np.testing.assert_array_equal(enclosed(mask, free), want)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), passes=st.integers(0, 3))
+def test_fill_holes_takes_the_nearest_depth_pass_by_pass(seed, passes):
+    rng = np.random.default_rng(seed)
+    depth = rng.uniform(0.5, 1.5, (int(rng.integers(2, 40)), int(rng.integers(2, 40))))
+    depth = depth.astype(np.float32)
+    depth[rng.random(depth.shape) < rng.uniform(0.0, 0.9)] = 0.0
+    valid = depth > 0
+    want = np.where(valid, depth, np.inf)
+    for _ in range(passes):  # the smallest 3x3 neighbour (the edge repeated), empty pixels only
+        p = np.pad(want, 1, mode="edge")
+        H, W = want.shape
+        near = np.min([p[r : r + H, c : c + W] for r in range(3) for c in range(3)], axis=0)
+        want = np.where(np.isfinite(want), want, near)
+    want = np.where(np.isfinite(want), want, 0.0)
+    got = fill_holes(depth, valid, passes)
+    np.testing.assert_array_equal(got, want.astype(np.float32))
