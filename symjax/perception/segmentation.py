@@ -146,11 +146,12 @@ def _segment_depth(
         with ThreadPoolExecutor(1) as pool:
             crease_on = cfg.crease_threshold is not None
             colour = pool.submit(lab_image, rgb[sl]) if rgb is not None and crease_on else None
-            distances = pool.submit(neighbour_distances, depth[sl], rays[sl])
             kappa = crease = None
-            if crease_on:
+            if crease_on:  # (two threads of its own: the distances wait until it is done)
                 focal = float(np.sqrt(camera.K[0, 0] * camera.K[1, 1]))
                 kappa = crease_concavity(conn[sl], focal, cfg)
+            distances = pool.submit(neighbour_distances, depth[sl], rays[sl])
+            if crease_on:
                 crease = crease_mask(kappa, cfg)
             colour = None if colour is None else colour.result()
             cut = None if colour is None else colour_creases(colour, kappa, cfg)
