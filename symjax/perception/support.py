@@ -209,7 +209,6 @@ def join_supported(
     Returns:
         (H, W) int32 labels, renumbered by decreasing size.
     """
-
     n = int(labels.max(initial=-1)) + 1
     if n < 2:
         return labels
@@ -219,7 +218,6 @@ def join_supported(
     # far above the part it meets a part is there.
     contact, touch, rise = contacts(labels, z, step, height)
     flat = labels.ravel()
-    # A stable sort of 16-bit keys is a radix sort: linear in the pixels.
     # Each part's pixels in increasing order: a stable sort of the labelled pixels by label (of
     # 16-bit keys, a radix sort: linear in the pixels).
     sel = np.flatnonzero(flat >= 0)
