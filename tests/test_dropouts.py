@@ -9,9 +9,10 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from symjax import configs
+from symjax.geometry import axis_rotation
 from symjax.perception import segment
 from symjax.perception.clutter_benchmark import match_ious
-from symjax.perception.dropouts import _entry
+from symjax.perception.dropouts import _entry, claim_dropouts
 from symjax.perception.synthetic import clutter_scene
 
 SQUARE = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.1], [0.0, 0.1]])  # counter-clockwise
@@ -66,3 +67,40 @@ def test_a_box_top_without_depth_joins_the_box_mask_and_no_one_else_loses():
     for a, b in zip(res.objects, without.objects, strict=True):
         np.testing.assert_array_equal(a.valid_points(), b.valid_points())
         assert np.all(np.asarray(a.mask) >= np.asarray(b.mask))
+
+
+def _box_view():
+    """A 64 x 64 camera (the world frame) over a table at y = 0.2 m (camera y points down) with
+    a 0.1 m box on it at 1 m; the box's pixels in rows 45-48 have no depth."""
+    K = np.array([[100.0, 0.0, 32.0], [0.0, 100.0, 32.0], [0.0, 0.0, 1.0]])
+    r, c = np.mgrid[0:64, 0:64]
+    rays = np.stack([(c - 32.0) / 100.0, (r - 32.0) / 100.0, np.ones((64, 64))], axis=-1)
+    g = np.linspace(-0.05, 0.05, 21)
+    x, y = np.meshgrid(g, g + 0.15)
+    front = np.stack([x.ravel(), y.ravel(), np.full(x.size, 0.95)], axis=1)  # the face seen
+    uv = np.round(front[:, :2] / front[:, 2:] * 100.0 + 32.0).astype(int)
+    labels = np.full((64, 64), -1, np.int32)
+    labels[uv[:, 1], uv[:, 0]] = 0
+    valid = labels >= 0
+    valid[45:49] = False
+    labels[~valid] = -1
+    top = np.stack([x.ravel(), np.full(x.size, 0.1), 1.0 + y.ravel() - 0.15], axis=1)
+    points = np.concatenate([front, top])
+    return K, rays, labels, valid, points
+
+
+@given(axis=st.sampled_from([(1, 0, 0), (0, 0, 1), (1, 1, 0), (0.3, -1, 0.5)]),
+       angle=st.floats(-3.0, 3.0))  # fmt: skip
+@settings(max_examples=20, deadline=None)
+def test_claims_do_not_depend_on_the_world_frame(axis, angle):
+    # The same scene in a rotated world frame (any table normal, including ones along x where
+    # the table basis is built from another reference axis) claims the same pixels.
+    _, rays, labels, valid, points = _box_view()
+    normal, offset = np.array([0.0, -1.0, 0.0]), 0.2
+    ref = claim_dropouts(labels, valid, rays, np.eye(4), {0: points}, normal, offset, 8)
+    assert (ref[45:49] == 0).sum() >= 40 and (ref[valid] == -1).all()
+    Q = axis_rotation(np.asarray(axis, float) / np.linalg.norm(axis), angle)
+    T = np.eye(4)
+    T[:3, :3] = Q
+    got = claim_dropouts(labels, valid, rays, T, {0: points @ Q.T}, Q @ normal, offset, 8)
+    np.testing.assert_array_equal(got, ref)

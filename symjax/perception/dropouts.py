@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from symjax._threads import map_in_threads
+from symjax.geometry import tangent_basis
 from symjax.perception.hull import convex_hull_2d
 
 __all__ = ["claim_dropouts"]
@@ -98,10 +99,7 @@ def claim_dropouts(
     if not points or max_px <= 0:
         return out
     n = np.asarray(normal, np.float64)
-    e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(n, e1)
-    basis = np.stack([e1, e2, n])
+    basis = np.stack([*tangent_basis(n), n])  # u, v on the table, height along n
     T = np.asarray(T_world_cam, np.float64)
     o = basis @ T[:3, 3] + np.array([0.0, 0.0, offset])
     # Rays in the table basis straight from the camera frame, only for the pixels in question.
