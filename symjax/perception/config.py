@@ -83,6 +83,12 @@ class SegmentationConfig:
         claim_dropouts_px: Pixels without depth within this many pixels of an object whose
             viewing ray passes through the object's column (footprint hull x height) join its
             mask, not its points (:mod:`symjax.perception.dropouts`); 0 = off.
+        round_margin: Metres; 0 = off. Touching parts give back what they took across a round
+            part's wall (:mod:`symjax.perception.round_parts`): pixels whose points stand more
+            than this inside a round neighbour's disc go to it, and pixels of a round part more
+            than this outside its circle go to an adjacent part whose footprint holds them.
+        round_residual: A part's wall is round when its points lie within this median distance
+            (m) of a circle.
         split_bridges_px: A cluster that erosion by a disc of this radius (pixels) breaks into
             two or more cores of ``min_cluster_points`` seed pixels is split there: two touching
             objects joined through a few pixels where the crease and the depth step both missed
@@ -128,6 +134,8 @@ class SegmentationConfig:
     mask_fill: str = "close"
     claim_dropouts_px: int = 0
     split_bridges_px: int = 0
+    round_margin: float = 0.0
+    round_residual: float = 0.001
     object_holes: bool = False
     seed: int = 0
 
@@ -209,6 +217,10 @@ class SegmentationConfig:
             raise ConfigError(
                 f"split_bridges_px must be >= 0 pixels (0 = off), got {self.split_bridges_px}"
             )
+        if not (math.isfinite(self.round_margin) and self.round_margin >= 0):
+            raise ConfigError(f"round_margin must be >= 0 m (0 = off), got {self.round_margin}")
+        if not (math.isfinite(self.round_residual) and self.round_residual > 0):
+            raise ConfigError(f"round_residual must be > 0 m, got {self.round_residual}")
         if self.border_px < 0 or self.touch_px < 0:
             raise ConfigError("border_px and touch_px must be >= 0")
         if self.mask_fill not in ("none", "close", "hull"):

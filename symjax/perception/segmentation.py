@@ -43,6 +43,7 @@ from symjax.perception.object_info import (
     occluder_depth,
 )
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
+from symjax.perception.round_parts import settle_round_parts
 from symjax.perception.support import join_supported, table_footprint
 from symjax.perception.table_frame import in_table_frame
 from symjax.table import TablePlane
@@ -159,6 +160,8 @@ def _segment_depth(
             if kappa is not None and lab.max() > 0:
                 foot = table_footprint(lab, rays[sl], conn[sl], T, n)
                 lab = join_supported(lab, foot, height[sl], cfg, depth=conn[sl])
+                if cfg.round_margin > 0:  # (joins relabel parts, not pixels: foot holds)
+                    lab = settle_round_parts(lab, foot, height[sl], conn[sl], cfg)
             lab[~valid[sl]] = -1
             lab[grid_outliers(depth[sl], rays[sl], lab, cfg, distances.result())] = -1
         labels[sl] = lab

@@ -23,7 +23,7 @@ from symjax.geometry import tangent_basis
 from symjax.perception.config import SegmentationConfig
 from symjax.perception.hull import convex_hull_2d
 
-__all__ = ["contacts", "join_supported", "relabel_by_size", "table_footprint"]
+__all__ = ["contacts", "join_supported", "part_pixels", "relabel_by_size", "table_footprint"]
 
 _FOOTPRINT_SLACK = 0.005  # m: a point may lie this far outside the support's footprint ...
 _ON_SUPPORT = 0.8  # ... and this share of the part's points must lie on it
@@ -188,6 +188,19 @@ def table_footprint(
     return out
 
 
+def part_pixels(labels: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each part's flat pixel indices, in increasing order: ``order[starts[k]:starts[k + 1]]``
+    for part k of ``n``, with ``count`` (n,) pixels each (labels (H, W), -1 none)."""
+    flat = labels.ravel()
+    # A stable sort of the labelled pixels by label (of 16-bit keys, a radix sort: linear in
+    # the pixels), not a scan of the image per part.
+    sel = np.flatnonzero(flat >= 0)
+    keys = flat[sel]
+    order = sel[np.argsort(keys.astype(np.int16) if n < 2**15 else keys, kind="stable")]
+    count = np.bincount(keys, minlength=n)
+    return order, np.concatenate([[0], np.cumsum(count)]), count
+
+
 def join_supported(
     labels: np.ndarray,
     foot: np.ndarray,
@@ -217,14 +230,7 @@ def join_supported(
     # contact: pixel pairs on one surface; touch: all pairs, across depth steps too; rise: how
     # far above the part it meets a part is there.
     contact, touch, rise = contacts(labels, z, step, height)
-    flat = labels.ravel()
-    # Each part's pixels in increasing order: a stable sort of the labelled pixels by label (of
-    # 16-bit keys, a radix sort: linear in the pixels).
-    sel = np.flatnonzero(flat >= 0)
-    keys = flat[sel]
-    order = sel[np.argsort(keys.astype(np.int16) if n < 2**15 else keys, kind="stable")]
-    count = np.bincount(keys, minlength=n)
-    starts = np.concatenate([[0], np.cumsum(count)])
+    order, starts, count = part_pixels(labels, n)
     foot_all = foot.reshape(-1, 2)
     hgt = height.ravel()
     # Per part: pixel indices, footprint (N, 2) and lowest height (5th percentile).

@@ -1,0 +1,168 @@
+"""Pixels that touching parts trade across a round part's wall go back: objects on a table do not
+overlap.
+
+Where two objects meet without a crease (two bottles' shoulders at one height, a box face seen
+at a grazing angle against a can), the crease cut may hand a strip of one to the other. A can's
+or a bottle's wall stands on a circle of the table: its visible points lie on that circle and
+its top, shoulder and neck inside it. So a point whose footprint lies inside a round neighbour's
+disc belongs to that neighbour, and a point of a round part that stands outside its own circle
+belongs to an adjacent part whose footprint holds it (or stays, as a mug's handle does).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from symjax.perception.config import SegmentationConfig
+from symjax.perception.hull import convex_hull_2d
+from symjax.perception.support import (
+    _MAX_ARC_RADIUS,
+    _MIN_TOUCH,
+    _by_size,
+    _hull_distance,
+    contacts,
+    part_pixels,
+)
+
+__all__ = ["settle_round_parts", "wall_circle"]
+
+_WALL = 0.6  # the wall: points below this share of the part's top height (not neck or shoulder)
+_SAMPLE = 500  # wall points a circle is fitted to, at most
+_MIN_PIXELS = 100  # smaller parts have no wall to speak of
+
+
+def _fit_circle(f: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares circle ``(centre (2,), radius)`` through points (N, 2) (Kasa's fit)."""
+    A = np.column_stack([f, np.ones(len(f))])
+    sol, *_ = np.linalg.lstsq(A, -(f**2).sum(axis=1), rcond=None)
+    c = -0.5 * sol[:2]
+    r2 = float(c @ c - sol[2])
+    return (c, float(np.sqrt(r2))) if r2 > 0 else None
+
+
+def wall_circle(
+    foot: np.ndarray, height: np.ndarray, residual: float, margin: float
+) -> tuple[np.ndarray, float] | None:
+    """The circle a round part's wall stands on, or None when its wall is not round.
+
+    Args:
+        foot: (N, 2) the part's points on the table (a basis of the table plane), metres.
+        height: (N,) their heights above the table, metres.
+        residual: Largest median distance (m) of the wall's points from the circle: a box's
+            two visible faces fit a circle several millimetres worse than a can's wall.
+        margin: Metres: points farther than this (or twice the median) from the circle are
+            left out of the refits (pixels the part took from a neighbour).
+
+    Returns:
+        ``(centre (2,), radius)`` in metres.
+    """
+    if len(foot) < _MIN_PIXELS:
+        return None
+    step = max(1, len(foot) // (2 * _SAMPLE))  # the wall is at least half of a round part
+    foot, height = foot[::step], height[::step]
+    wall = foot[height < _WALL * np.percentile(height, 98)]
+    wall = wall[:: max(1, len(wall) // _SAMPLE)]
+    if len(wall) < 30:
+        return None
+    circle = _fit_circle(wall)
+    # An arc, not a straight face: a flat wall fits any circle much wider than itself.
+    if circle is None or circle[1] > _MAX_ARC_RADIUS * float(np.max(np.ptp(wall, axis=0))):
+        return None
+    for _ in range(2):  # refits without the points that stray from the circle
+        if circle is None:
+            return None
+        off = np.abs(_distance(wall, circle[0]) - circle[1])
+        keep = wall[off <= max(margin, 2.0 * float(np.median(off)))]
+        circle = _fit_circle(keep) if len(keep) >= 10 else None
+    if circle is None:
+        return None
+    off = np.abs(_distance(wall, circle[0]) - circle[1])
+    return circle if float(np.median(off)) <= residual else None
+
+
+def _distance(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Distances (N,) of points (N, 2) from a centre (2,), metres."""
+    return np.hypot(points[:, 0] - centre[0], points[:, 1] - centre[1])
+
+
+def settle_round_parts(
+    labels: np.ndarray,
+    foot: np.ndarray,
+    height: np.ndarray,
+    depth: np.ndarray,
+    config: SegmentationConfig,
+) -> np.ndarray:
+    """Moves the pixels that touching parts traded across round walls (module docstring).
+
+    Args:
+        labels: (H, W) int32 parts, -1 none.
+        foot: (H, W, 2) the pixels' points on the table (:func:`support.table_footprint`, used
+            where ``labels >= 0``), metres.
+        height: (H, W) height above the table, metres.
+        depth: (H, W) depth, metres (which parts meet on one surface).
+        config: ``round_margin`` (m, > 0), ``round_residual``, ``depth_jump``.
+
+    Returns:
+        (H, W) int32 labels, renumbered by decreasing size.
+    """
+    n = int(labels.max(initial=-1)) + 1
+    if n < 2:
+        return labels
+    margin = config.round_margin
+    _, touch, _ = contacts(labels, depth, 0.5 * config.depth_jump, height)
+    touch = touch >= _MIN_TOUCH
+    np.fill_diagonal(touch, False)
+    F, Z = foot.reshape(-1, 2), height.ravel()
+    order, starts, count = part_pixels(labels, n)
+    idx = {k: order[starts[k] : starts[k + 1]] for k in range(n) if touch[k].any()}
+    feet = {k: F[i] for k, i in idx.items()}  # each part's footprint, gathered once
+    circles = {k: wall_circle(feet[k], Z[i], config.round_residual, margin) for k, i in idx.items()}
+    # New owner of each part's pixels (its own label where it keeps them).
+    owner = {k: np.full(len(i), k) for k, i in idx.items()}
+    # Into a round part's disc: what a neighbour holds well inside it (but never most of the
+    # neighbour, nor what lies within the neighbour's own circle).
+    for b, cb in circles.items():
+        if cb is None:
+            continue
+        for a in np.flatnonzero(touch[b]):
+            deep = _distance(feet[a], cb[0]) < cb[1] - margin
+            ca = circles[a]
+            if ca is not None:
+                deep &= _distance(feet[a], ca[0]) > ca[1] - margin
+            if deep.sum() < 0.5 * len(deep):
+                owner[a][deep] = b
+    # Out of a round part: what stands beyond its circle, to the adjacent part nearest to
+    # holding it (within the margin of its circle or footprint hull). What it took from its
+    # neighbours above lies inside its disc.
+    hulls: dict = {}
+    for a, ca in circles.items():
+        if ca is None:
+            continue
+        far = np.flatnonzero((owner[a] == a) & (_distance(feet[a], ca[0]) > ca[1] + margin))
+        if not len(far):
+            continue
+        f = feet[a][far]
+        best, gap = np.full(len(far), -1), np.full(len(far), np.inf)
+        for b in np.flatnonzero(touch[a]):
+            cb = circles[b]
+            if cb is not None:
+                g = _distance(f, cb[0]) - cb[1]
+            else:
+                if b not in hulls:
+                    hulls[b] = convex_hull_2d(feet[b][:: max(1, len(feet[b]) // 4000)])
+                g = -_hull_distance(hulls[b], f)
+            take = (g <= margin) & (g < gap)
+            best[take], gap[take] = b, g[take]
+        owner[a][far[best >= 0]] = best[best >= 0]
+    moved = [(idx[k][o != k], o[o != k]) for k, o in owner.items() if (o != k).any()]
+    if not moved:
+        return labels
+    out = labels.copy()
+    flat = out.reshape(-1)
+    for pix, to in moved:
+        flat[pix] = to
+    # Renumbered by size from the counts, not a recount of the image.
+    for pix, to in moved:
+        np.subtract.at(count, labels.reshape(-1)[pix], 1)
+        np.add.at(count, to, 1)
+    return _by_size(count)[out]  # (its last entry, -1, maps the unlabelled pixels)

@@ -1,0 +1,123 @@
+"""Pixels traded across a round part's wall go back: the wall's circle, the moves, a scene."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from symjax import configs
+from symjax.perception import segment
+from symjax.perception.clutter_benchmark import match_ious
+from symjax.perception.round_parts import settle_round_parts, wall_circle
+from symjax.perception.synthetic import clutter_scene
+
+CFG = configs.load("clutter").segmentation
+
+
+def _bottle(rng, centre, r, start, n=1500):
+    """Footprint (N, 2) and heights (N,) of a bottle seen from one side: its wall on half the
+    circle up to 0.1 m, its shoulder and neck inside the disc above."""
+    t = rng.uniform(start, start + np.pi, n)
+    wall = centre + r * np.stack([np.cos(t), np.sin(t)], 1) + rng.normal(0, 3e-4, (n, 2))
+    top = centre + rng.uniform(-0.7 * r, 0.7 * r, (n // 2, 2))
+    foot = np.concatenate([wall, top])
+    height = np.concatenate([rng.uniform(0.0, 0.1, n), rng.uniform(0.1, 0.14, n // 2)])
+    return foot, height
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**16), r=st.floats(0.02, 0.05), start=st.floats(0, 2 * np.pi))
+def test_wall_circle_of_a_bottle_is_its_body(seed, r, start):
+    rng = np.random.default_rng(seed)
+    centre = rng.uniform(-0.3, 0.3, 2)
+    foot, height = _bottle(rng, centre, r, start)
+    circle = wall_circle(foot, height, CFG.round_residual, CFG.round_margin)
+    assert circle is not None
+    np.testing.assert_allclose(circle[0], centre, atol=1.5e-3)
+    assert abs(circle[1] - r) < 1.5e-3
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**16), a=st.floats(0.03, 0.09), b=st.floats(0.0, 0.09))
+def test_a_box_wall_is_not_round(seed, a, b):
+    # Two faces at a right angle (one where b is small): straight lines, fitted by no circle.
+    rng = np.random.default_rng(seed)
+    u = np.concatenate([rng.uniform(0, a, 1000), np.zeros(int(1000 * b / 0.09) + 1)])
+    v = np.concatenate([np.zeros(1000), rng.uniform(0, b, int(1000 * b / 0.09) + 1)])
+    yaw = rng.uniform(0, np.pi)
+    rot = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+    foot = np.stack([u, v], 1) @ rot.T + rng.normal(0, 3e-4, (len(u), 2))
+    height = rng.uniform(0.0, 0.12, len(u))
+    assert wall_circle(foot, height, CFG.round_residual, CFG.round_margin) is None
+
+
+def _two_parts():
+    """Labels (20, 40): a bottle (label 0, columns 0-19) and a box (label 1, columns 20-39)
+    side by side, with the pixels' footprints and heights given directly."""
+    rng = np.random.default_rng(3)
+    labels = np.repeat(np.repeat(np.array([[0, 1]], np.int32), 20, axis=1), 20, axis=0)
+    foot = np.zeros((20, 40, 2))
+    height = np.zeros((20, 40))
+    f, h = _bottle(rng, np.array([0.0, 0.0]), 0.04, 0.0, n=300)
+    pick = rng.permutation(len(f))[:400]
+    foot[:, :20] = f[pick].reshape(20, 20, 2)
+    height[:, :20] = h[pick].reshape(20, 20)
+    # The box's near face: a segment beside the bottle, x from 0.05 to 0.12 at y = 0.03.
+    foot[:, 20:, 0] = rng.uniform(0.05, 0.12, (20, 20))
+    foot[:, 20:, 1] = 0.03 + rng.uniform(-0.02, 0.0, (20, 20))
+    height[:, 20:] = rng.uniform(0.0, 0.1, (20, 20))
+    return labels, foot, height, np.ones((20, 40))
+
+
+def test_a_neighbour_gives_back_what_lies_inside_a_round_disc():
+    labels, foot, height, depth = _two_parts()
+    # The box took two rows of the bottle's shoulder: footprints well inside the bottle's disc.
+    foot[:2, 20:] = np.random.default_rng(4).uniform(-0.02, 0.02, (2, 20, 2))
+    out = settle_round_parts(labels, foot, height, depth, CFG)
+    assert (out[:2, 20:] == 0).all() and (out[2:, 20:] == 1).all() and (out[:, :20] == 0).all()
+
+
+def test_a_round_part_gives_back_what_stands_in_a_neighbours_footprint():
+    labels, foot, height, depth = _two_parts()
+    # The bottle took a strip of the box face (beyond its circle, in the box's footprint) and
+    # has a handle (beyond its circle, in no one's footprint): the strip goes, the handle stays.
+    foot[:, 18, 0], foot[:, 18, 1] = np.linspace(0.052, 0.07, 20), 0.025
+    foot[:, 19, 0], foot[:, 19, 1] = -0.055, np.linspace(-0.01, 0.01, 20)
+    height[:, 18:20] = 0.05
+    out = settle_round_parts(labels, foot, height, depth, CFG)
+    bottle, box = out[0, 0], out[0, 39]  # renumbered by size: the box is now the larger
+    assert (box, bottle) == (0, 1)
+    assert (out[:, 18] == box).all() and (out[:, 19] == bottle).all()
+    assert (out[:, :18] == bottle).all() and (out[:, 20:] == box).all()
+
+
+def test_nothing_moves_between_parts_apart_or_without_round_walls():
+    labels, foot, height, depth = _two_parts()
+    apart = labels.copy()
+    apart[:, 18:22] = -1  # no longer touching
+    foot[:2, 20:] = 0.0  # inside the bottle's disc, but the parts do not touch
+    np.testing.assert_array_equal(settle_round_parts(apart, foot, height, depth, CFG), apart)
+    boxes = np.where(labels >= 0, labels, -1)
+    flat = foot.copy()
+    flat[:, :20, 1] = 0.06  # the "bottle" is a straight face now
+    np.testing.assert_array_equal(settle_round_parts(boxes, flat, height, depth, CFG), labels)
+
+
+@pytest.mark.parametrize(("seed", "kinds", "k"), [
+    (33, ("bottle", "can", "bottle", "can", "bottle", "box", "can"), 2),
+    (29, ("bottle", "box", "bottle", "bottle", "box", "bottle", "box"), 1),
+])  # fmt: skip
+def test_coplanar_shoulders_and_grazing_faces_go_back(seed, kinds, k):
+    # Clutter benchmark scenes 17 (two bottles' shoulders at one height) and 13 (a box took a
+    # bottle's shoulder): under 0.85 without, at least 0.85 with, and no object worse by more
+    # than a hundredth.
+    sc = clutter_scene(kinds, seed=seed)
+    off = dataclasses.replace(CFG, round_margin=0.0)
+    before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, off))
+    after, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, CFG))
+    assert before.min() < 0.85 <= after.min()
+    assert np.all(after >= before - 0.01)
