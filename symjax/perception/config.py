@@ -83,10 +83,10 @@ class SegmentationConfig:
         claim_dropouts_px: Pixels without depth within this many pixels of an object whose
             viewing ray passes through the object's column (footprint hull x height) join its
             mask, not its points (:mod:`symjax.perception.dropouts`); 0 = off.
-        round_margin: Metres; 0 = off. Touching parts give back what they took across a round
-            part's wall (:mod:`symjax.perception.round_parts`): pixels whose points stand more
-            than this inside a round neighbour's disc go to it, and pixels of a round part more
-            than this outside its circle go to an adjacent part whose footprint holds them.
+        round_margin: Metres; 0 = off. Parts that meet on one surface give back what they took
+            across a round part's wall (:mod:`symjax.perception.round_parts`): pixels whose points
+            stand more than this inside a round neighbour's disc go to it, and pixels of a round
+            part more than this outside its circle go to a neighbour whose footprint holds them.
         round_residual: A part's wall is round when its points lie within this median distance
             (m) of a circle.
         split_bridges_px: A cluster that erosion by a disc of this radius (pixels) breaks into

@@ -1,5 +1,5 @@
-"""Pixels that touching parts trade across a round part's wall go back: objects on a table do not
-overlap.
+"""Pixels that parts meeting on one surface trade across a round part's wall go back: objects on
+a table do not overlap.
 
 Where two objects meet without a crease (two bottles' shoulders at one height, a box face seen
 at a grazing angle against a can), the crease cut may hand a strip of one to the other. A can's
@@ -92,7 +92,8 @@ def settle_round_parts(
     depth: np.ndarray,
     config: SegmentationConfig,
 ) -> np.ndarray:
-    """Moves the pixels that touching parts traded across round walls (module docstring).
+    """Moves the pixels that parts meeting on one surface traded across round walls (module
+    docstring).
 
     Args:
         labels: (H, W) int32 parts, -1 none.
@@ -109,12 +110,14 @@ def settle_round_parts(
     if n < 2:
         return labels
     margin = config.round_margin
-    _, touch, _ = contacts(labels, depth, 0.5 * config.depth_jump, height)
-    touch = touch >= _MIN_TOUCH
-    np.fill_diagonal(touch, False)
+    # Only parts that meet on one surface (no depth step between them) trade pixels unseen:
+    # across a step the far side is cut and goes back to its own surface already.
+    smooth, _, _ = contacts(labels, depth, 0.5 * config.depth_jump, height)
+    meet = smooth >= _MIN_TOUCH
+    np.fill_diagonal(meet, False)
     F, Z = foot.reshape(-1, 2), height.ravel()
     order, starts, count = part_pixels(labels, n)
-    idx = {k: order[starts[k] : starts[k + 1]] for k in range(n) if touch[k].any()}
+    idx = {k: order[starts[k] : starts[k + 1]] for k in range(n) if meet[k].any()}
     feet = {k: F[i] for k, i in idx.items()}  # each part's footprint, gathered once
     circles = {k: wall_circle(feet[k], Z[i], config.round_residual, margin) for k, i in idx.items()}
     # New owner of each part's pixels (its own label where it keeps them).
@@ -124,7 +127,7 @@ def settle_round_parts(
     for b, cb in circles.items():
         if cb is None:
             continue
-        for a in np.flatnonzero(touch[b]):
+        for a in np.flatnonzero(meet[b]):
             deep = _distance(feet[a], cb[0]) < cb[1] - margin
             ca = circles[a]
             if ca is not None:
@@ -143,7 +146,7 @@ def settle_round_parts(
             continue
         f = feet[a][far]
         best, gap = np.full(len(far), -1), np.full(len(far), np.inf)
-        for b in np.flatnonzero(touch[a]):
+        for b in np.flatnonzero(meet[a]):
             cb = circles[b]
             if cb is not None:
                 g = _distance(f, cb[0]) - cb[1]
