@@ -157,15 +157,15 @@ def settle_round_parts(
             take = (g <= margin) & (g < gap)
             best[take], gap[take] = b, g[take]
         owner[a][far[best >= 0]] = best[best >= 0]
-    moved = [(idx[k][o != k], o[o != k]) for k, o in owner.items() if (o != k).any()]
-    if not moved:
-        return labels
     out = labels.copy()
     flat = out.reshape(-1)
-    for pix, to in moved:
-        flat[pix] = to
-    # Renumbered by size from the counts, not a recount of the image.
-    for pix, to in moved:
-        np.subtract.at(count, labels.reshape(-1)[pix], 1)
-        np.add.at(count, to, 1)
-    return _by_size(count)[out]  # (its last entry, -1, maps the unlabelled pixels)
+    moved = False
+    for k, o in owner.items():
+        gone = o != k
+        if gone.any():
+            moved = True
+            flat[idx[k][gone]] = o[gone]
+            # Renumbered by size from the counts, not a recount of the image.
+            count[k] -= gone.sum()
+            count += np.bincount(o[gone], minlength=n)
+    return _by_size(count)[out] if moved else labels  # (_by_size maps -1 to -1)
