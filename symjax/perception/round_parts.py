@@ -21,6 +21,7 @@ from symjax.perception.support import (
     _by_size,
     _hull_distance,
     contacts,
+    fit_circle,
     part_pixels,
 )
 
@@ -29,15 +30,6 @@ __all__ = ["settle_round_parts", "wall_circle"]
 _WALL = 0.6  # the wall: points below this share of the part's top height (not neck or shoulder)
 _SAMPLE = 500  # wall points a circle is fitted to, at most
 _MIN_PIXELS = 100  # smaller parts have no wall to speak of
-
-
-def _fit_circle(f: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """Least-squares circle ``(centre (2,), radius)`` through points (N, 2) (Kasa's fit)."""
-    A = np.column_stack([f, np.ones(len(f))])
-    sol, *_ = np.linalg.lstsq(A, -(f**2).sum(axis=1), rcond=None)
-    c = -0.5 * sol[:2]
-    r2 = float(c @ c - sol[2])
-    return (c, float(np.sqrt(r2))) if r2 > 0 else None
 
 
 def wall_circle(
@@ -64,7 +56,7 @@ def wall_circle(
     wall = wall[:: max(1, len(wall) // _SAMPLE)]
     if len(wall) < 30:
         return None
-    circle = _fit_circle(wall)
+    circle = fit_circle(wall)
     # An arc, not a straight face: a flat wall fits any circle much wider than itself.
     if circle is None or circle[1] > _MAX_ARC_RADIUS * float(np.max(np.ptp(wall, axis=0))):
         return None
@@ -73,7 +65,7 @@ def wall_circle(
             return None
         off = np.abs(_distance(wall, circle[0]) - circle[1])
         keep = wall[off <= max(margin, 2.0 * float(np.median(off)))]
-        circle = _fit_circle(keep) if len(keep) >= 10 else None
+        circle = fit_circle(keep) if len(keep) >= 10 else None
     if circle is None:
         return None
     off = np.abs(_distance(wall, circle[0]) - circle[1])

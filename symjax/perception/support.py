@@ -23,7 +23,14 @@ from symjax.geometry import tangent_basis
 from symjax.perception.config import SegmentationConfig
 from symjax.perception.hull import convex_hull_2d
 
-__all__ = ["contacts", "join_supported", "part_pixels", "relabel_by_size", "table_footprint"]
+__all__ = [
+    "contacts",
+    "fit_circle",
+    "join_supported",
+    "part_pixels",
+    "relabel_by_size",
+    "table_footprint",
+]
 
 _FOOTPRINT_SLACK = 0.005  # m: a point may lie this far outside the support's footprint ...
 _ON_SUPPORT = 0.8  # ... and this share of the part's points must lie on it
@@ -124,19 +131,26 @@ def _within(inner: np.ndarray, disc) -> bool:
     return bool(np.mean(d <= disc[1] + 2 * _FOOTPRINT_SLACK) >= _ON_SUPPORT)
 
 
+def fit_circle(f: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares circle ``(centre (2,), radius)`` through points (N, 2) (Kasa's algebraic
+    fit), None when the points admit none (collinear)."""
+    A = np.column_stack([f, np.ones(len(f))])
+    sol, *_ = np.linalg.lstsq(A, -(f**2).sum(axis=1), rcond=None)
+    c = -0.5 * sol[:2]
+    r2 = float(c @ c - sol[2])
+    return (c, math.sqrt(r2)) if r2 > 0 else None
+
+
 def _round_footprint(foot: np.ndarray) -> tuple[np.ndarray, float] | None:
     """Circle ``(centre (2,), radius)`` through a footprint (N, 2) that is an arc of one, else
     None (a least-squares circle whose points stray from it, or wider than the arc allows)."""
     f = np.asarray(foot, np.float64)[:: max(1, len(foot) // 2000)]
     if len(f) < 10:
         return None
-    A = np.column_stack([f, np.ones(len(f))])
-    sol, *_ = np.linalg.lstsq(A, -(f**2).sum(axis=1), rcond=None)
-    c = -0.5 * sol[:2]
-    r2 = float(c @ c - sol[2])
-    if not r2 > 0:
+    circle = fit_circle(f)
+    if circle is None:
         return None
-    r = math.sqrt(r2)
+    c, r = circle
     extent = float(np.max(_extent(f)))
     off = np.abs(np.linalg.norm(f - c, axis=1) - r)
     if r > _MAX_ARC_RADIUS * extent or float(np.median(off)) > _ARC_TOLERANCE * r:
