@@ -87,3 +87,25 @@ def test_table_footprint_is_the_world_points_in_the_table_basis():
     on = labels[sl] >= 0
     np.testing.assert_allclose(got[on], want[sl][on], atol=1e-6)
     assert not got[~on].any()
+
+
+def test_joined_contacts_are_the_contacts_of_the_joined_parts(monkeypatch):
+    # join_supported keeps its pair counts up to date while it joins; on a clutter scene (its
+    # bottles' necks join their shoulders) they equal a recount on the labels it returns.
+    from symjax import configs
+    from symjax.perception import segment, segmentation, support
+    from symjax.perception.synthetic import clutter_scene
+
+    seen = []
+
+    def checked(labels, foot, height, config, depth=None, with_contacts=False):
+        joined, smooth = support.join_supported(labels, foot, height, config, depth, True)
+        recount, _, _ = contacts(joined, depth, 0.5 * config.depth_jump, height)
+        np.testing.assert_array_equal(smooth, recount)
+        seen.append(int(labels.max()) - int(joined.max()))
+        return (joined, smooth) if with_contacts else joined
+
+    monkeypatch.setattr(segmentation, "join_supported", checked)
+    sc = clutter_scene(("bottle", "can", "bottle", "can", "bottle", "box", "can"), seed=33)
+    segment(sc.depth, sc.camera, configs.load("clutter").segmentation)
+    assert seen and seen[0] >= 2  # parts were joined

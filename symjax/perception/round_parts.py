@@ -83,6 +83,7 @@ def settle_round_parts(
     height: np.ndarray,
     depth: np.ndarray,
     config: SegmentationConfig,
+    smooth: np.ndarray | None = None,
 ) -> np.ndarray:
     """Moves the pixels that parts meeting on one surface traded across round walls (module
     docstring).
@@ -94,6 +95,8 @@ def settle_round_parts(
         height: (H, W) height above the table, metres.
         depth: (H, W) depth, metres (which parts meet on one surface).
         config: ``round_margin`` (m, > 0), ``round_residual``, ``depth_jump``.
+        smooth: (K, K) the parts' pixel pairs on one surface (:func:`support.contacts`'s first
+            matrix, as :func:`support.join_supported` returns it); counted here when None.
 
     Returns:
         (H, W) int32 labels, renumbered by decreasing size.
@@ -104,9 +107,9 @@ def settle_round_parts(
     margin = config.round_margin
     # Only parts that meet on one surface (no depth step between them) trade pixels unseen:
     # across a step the far side is cut and goes back to its own surface already.
-    smooth, _, _ = contacts(labels, depth, 0.5 * config.depth_jump, height)
-    meet = smooth >= _MIN_TOUCH
-    np.fill_diagonal(meet, False)
+    if smooth is None:
+        smooth, _, _ = contacts(labels, depth, 0.5 * config.depth_jump, height)
+    meet = smooth >= _MIN_TOUCH  # (no part meets itself: the diagonal is 0)
     F, Z = foot.reshape(-1, 2), height.ravel()
     order, starts, count = part_pixels(labels, n)
     idx = {k: order[starts[k] : starts[k + 1]] for k in range(n) if meet[k].any()}

@@ -221,7 +221,8 @@ def join_supported(
     height: np.ndarray,
     config: SegmentationConfig,
     depth: np.ndarray | None = None,
-) -> np.ndarray:
+    with_contacts: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Joins the parts of one object that creases cut apart (see the module docstring).
 
     Args:
@@ -232,13 +233,17 @@ def join_supported(
         config: ``support_height``, ``support_narrow``, ``depth_jump``.
         depth: (H, W) depth, metres: a narrow part joins only a part it meets without a depth
             step (under half ``depth_jump``); None = any part it touches.
+        with_contacts: Also return the joined parts' pixel pairs on one surface, the first
+            matrix of :func:`contacts` of the returned labels (kept up to date while joining,
+            so that later steps need not count them again).
 
     Returns:
-        (H, W) int32 labels, renumbered by decreasing size.
+        (H, W) int32 labels, renumbered by decreasing size; with ``with_contacts`` also that
+        (K, K) matrix.
     """
     n = int(labels.max(initial=-1)) + 1
     if n < 2:
-        return labels
+        return (labels, np.zeros((n, n), np.int64)) if with_contacts else labels
     z = depth if depth is not None else np.zeros(labels.shape, np.float32)
     step = 0.5 * config.depth_jump if depth is not None else np.inf
     # contact: pixel pairs on one surface; touch: all pairs, across depth steps too; rise: how
@@ -317,4 +322,11 @@ def join_supported(
             del parts[k]
     # Renumbered by the joined parts' sizes in one lookup (relabel_by_size of owner[labels]).
     rank = _by_size(np.bincount(owner, weights=count, minlength=n).astype(np.int64))
-    return np.append(rank[owner], np.int32(-1))[labels]
+    joined = np.append(rank[owner], np.int32(-1))[labels]
+    if not with_contacts:
+        return joined
+    alive = np.array(sorted(parts))
+    smooth = np.zeros((len(alive), len(alive)), contact.dtype)
+    smooth[np.ix_(rank[alive], rank[alive])] = contact[np.ix_(alive, alive)]
+    np.fill_diagonal(smooth, 0)  # pairs inside a joined part are no contact
+    return joined, smooth
