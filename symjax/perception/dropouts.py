@@ -41,7 +41,7 @@ def _entry(
 
     def clip(num: np.ndarray, den: np.ndarray) -> None:
         # Keep s with num + s * den >= 0.
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             s = -num / den
         np.maximum(lo, np.where(den > 0, s, -np.inf), out=lo)
         np.minimum(hi, np.where(den < 0, s, np.inf), out=hi)
@@ -54,7 +54,8 @@ def _entry(
     num = inward[:, 0] * (o_uvh[0] - hull[:, 0]) + inward[:, 1] * (o_uvh[1] - hull[:, 1])
     # All edges at once (R, V): one pass instead of one per edge.
     den = d_uvh[:, :1] * inward[None, :, 0] + d_uvh[:, 1:2] * inward[None, :, 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # A ray parallel to an edge up to rounding divides by a tiny den: +-inf is the limit meant.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         s = -num / den
     np.maximum(lo, np.where(den > 0, s, -np.inf).max(axis=1, initial=-np.inf), out=lo)
     np.minimum(hi, np.where(den < 0, s, np.inf).min(axis=1, initial=np.inf), out=hi)
