@@ -71,20 +71,23 @@ def test_a_box_top_without_depth_joins_the_box_mask_and_no_one_else_loses():
 
 def _box_view():
     """A 64 x 64 camera (the world frame) over a table at y = 0.2 m (camera y points down) with
-    a 0.1 m box on it at 1 m; the box's pixels in rows 45-48 have no depth."""
+    a 0.1 x 0.0937 x 0.1 m box on it about 1 m away; the box's pixels in rows 45-48 have no
+    depth. No edge of the box lies on a pixel's ray (an edge through a pixel's centre would make
+    its claim a tie that rounding decides)."""
     K = np.array([[100.0, 0.0, 32.0], [0.0, 100.0, 32.0], [0.0, 0.0, 1.0]])
     r, c = np.mgrid[0:64, 0:64]
     rays = np.stack([(c - 32.0) / 100.0, (r - 32.0) / 100.0, np.ones((64, 64))], axis=-1)
-    g = np.linspace(-0.05, 0.05, 21)
-    x, y = np.meshgrid(g, g + 0.15)
-    front = np.stack([x.ravel(), y.ravel(), np.full(x.size, 0.95)], axis=1)  # the face seen
+    x, y = np.meshgrid(np.linspace(-0.05, 0.05, 21) + 0.00317, np.linspace(0.1063, 0.2, 21))
+    near = 0.9613
+    front = np.stack([x.ravel(), y.ravel(), np.full(x.size, near)], axis=1)  # the face seen
     uv = np.round(front[:, :2] / front[:, 2:] * 100.0 + 32.0).astype(int)
     labels = np.full((64, 64), -1, np.int32)
     labels[uv[:, 1], uv[:, 0]] = 0
     valid = labels >= 0
     valid[45:49] = False
     labels[~valid] = -1
-    top = np.stack([x.ravel(), np.full(x.size, 0.1), 1.0 + y.ravel() - 0.15], axis=1)
+    depth_in = np.linspace(0.0, 0.1, 21)[:, None].repeat(21, axis=1)  # rows go back
+    top = np.stack([x.ravel(), np.full(x.size, 0.1063), near + depth_in.ravel()], axis=1)
     points = np.concatenate([front, top])
     return K, rays, labels, valid, points
 
