@@ -146,13 +146,15 @@ def mirror_view(view: ViewArrays, normal, offset, config: SymmetryConfig):
 
 
 def search_view(
-    view: ViewArrays, config: SymmetryConfig, gate, chunk_planes: int = 256
+    view: ViewArrays, config: SymmetryConfig, gate, chunk_planes: int = 256, occluded=None
 ) -> SymmetryResult:
     """The whole search for one view (traced; jit and vmap are applied by the callers).
 
-    ``gate`` is the unbatched scalar of :func:`score_planes`; ``chunk_planes`` its chunk size
+    ``gate`` and ``occluded`` are the unbatched scalars of :func:`score_planes`;
+    ``chunk_planes`` its chunk size
     (:attr:`symjax.execution.ExecutionConfig.symmetry_chunk_hypotheses`).
     """
+    occluded = view.occluded if occluded is None else occluded
     n = view.table_normal
     c, s, m0, L = _initial_plane(view)
     side = jnp.cross(n, m0)
@@ -176,7 +178,7 @@ def search_view(
     angles0 = starts[:, None] + (unit_a * config.angle_range)[None, :]  # (n_starts, A)
     shifts0 = (config.shift_min + unit_s * (config.shift_max - config.shift_min)) * L  # (S,)
     normals, offsets = _plane_grid(n, m0, c, angles0.reshape(-1), shifts0)
-    out0, in0, votes0 = score_planes(view, normals, offsets, config, gate, chunk_planes)
+    out0, in0, votes0 = score_planes(view, normals, offsets, config, gate, chunk_planes, occluded)
     k = jnp.argmin(votes0)
     ks, rem = k // (A * S), k % (A * S)
     ia, js = rem // S, rem % S
@@ -208,7 +210,7 @@ def search_view(
         # Every chain's planes in one flat set: a vmap over chains would batch the kernel's
         # matrix-vector sums, which XLA:CPU runs about twice as slowly per plane.
         _, _, votes = score_planes(
-            view, normals.reshape(-1, 3), offsets.reshape(-1), config, gate, chunk_planes
+            view, normals.reshape(-1, 3), offsets.reshape(-1), config, gate, chunk_planes, occluded
         )
         votes = votes.reshape(-1, A * S)
         k = jnp.argmin(votes, axis=1)

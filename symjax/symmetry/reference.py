@@ -55,8 +55,11 @@ def score_planes_numpy(
         d1 = np.where(front, dist**2, float(H * H + W * W))
         observed = depth[rr.astype(int), cc.astype(int)]
         ahead = is_in & (observed > 0) & (z < observed - config.depth_tolerance)
+        # Behind an occluder (depth outside the mask) a mirrored point is hidden: in neither
+        # subset.
+        hidden = is_in & ~mask[rr.astype(int), cc.astype(int)] & ~ahead
         d1_sum, n_out = float(d1[is_out].sum()), int(is_out.sum())
-        d2_sum, n_in = float((observed - z)[ahead].sum()), int(is_in.sum())
+        d2_sum, n_in = float((observed - z)[ahead].sum()), int((is_in & ~hidden).sum())
         if config.normalize == "subset":
             outside[h] = d1_sum / max(n_out, 1)
             inside[h] = d2_sum / max(n_in, 1)

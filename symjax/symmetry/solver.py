@@ -49,7 +49,10 @@ def _search_batch_jit(
     # lax.map with batch_size vmaps chunks of views: every hypothesis of a chunk in one vmap,
     # while memory stays bounded for 128 views x 40k points.
     gate = jnp.isfinite(views.points).all()
-    return jax.lax.map(lambda v: search_view(v, cfg, gate, chunk_planes), views, batch_size=chunk)
+    occluded = views.occluded.any()
+    return jax.lax.map(
+        lambda v: search_view(v, cfg, gate, chunk_planes, occluded), views, batch_size=chunk
+    )
 
 
 def _checked_plane(res: SymmetryResult) -> None:

@@ -1,0 +1,154 @@
+"""Eq. 3 beside an occluder: a mirrored point hidden behind a nearer object is neither inside nor
+outside the mask (symjax.symmetry.scoring), against the numpy reference and on clutter."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import _scenes
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from symjax import Observation, configs
+from symjax.errors import InvalidInputError
+from symjax.perception import segment
+from symjax.perception.clutter_benchmark import match_ious, plane_error
+from symjax.perception.synthetic import clutter_scene
+from symjax.symmetry import SymmetryConfig, prepare_view, score_planes, search
+from symjax.symmetry.reference import score_planes_numpy
+from symjax.symmetry.view import OCCLUDER_OFFSET
+
+
+def _with_occluder(obs: Observation) -> Observation:
+    """The view with a nearer object's pixels below its mask (in front of it, for a camera
+    looking down): 12 rows of the mask's columns, 5 cm nearer than the object."""
+    mask, depth = np.asarray(obs.mask), np.asarray(obs.depth).copy()
+    rows, cols = np.nonzero(mask)
+    band = (slice(rows.max() - 6, rows.max() + 6), slice(cols.min(), cols.max() + 1))
+    near = float(depth[mask].min()) - 0.05
+    depth[band] = np.where(mask[band], depth[band], near)
+    return dataclasses.replace(obs, depth=depth.astype(np.float32))
+
+
+@pytest.fixture(scope="module")
+def occluded():
+    obs, _ = _scenes.view("box", 0.4, noise=0.001, seed=3)
+    return _with_occluder(obs)
+
+
+def _planes(n: int = 35, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    ang = rng.uniform(-np.pi, np.pi, n)
+    normals = np.stack([np.cos(ang), np.sin(ang), np.zeros_like(ang)], axis=1)
+    return normals, rng.uniform(-0.06, 0.06, n)
+
+
+def _hidden_counts(obs: Observation, normals, offsets) -> np.ndarray:
+    """Per plane, the mirrored points on the occluder's pixels behind its surface (numpy)."""
+    p = obs.valid_points().astype(np.float64)
+    T = np.asarray(obs.camera.T_world_cam, np.float64)
+    K = np.asarray(obs.camera.K, np.float64)
+    mask, depth = np.asarray(obs.mask), np.asarray(obs.depth, np.float64)
+    H, W = mask.shape
+    out = []
+    for n, d in zip(normals, offsets, strict=True):
+        q = p - 2.0 * np.outer(p @ n - d, n)
+        x, y, z = ((q - T[:3, 3]) @ T[:3, :3]).T
+        col = np.round(K[0, 0] * x / z + K[0, 2]).astype(int)
+        row = np.round(K[1, 1] * y / z + K[1, 2]).astype(int)
+        ok = (col >= 0) & (col < W) & (row >= 0) & (row < H)
+        r, c, zz = row[ok], col[ok], z[ok]
+        occ = ~mask[r, c] & (depth[r, c] > 0)
+        out.append(int(np.sum(occ & (zz >= depth[r, c] - 0.002))))
+    return np.asarray(out)
+
+
+def _float64_scores(obs: Observation, normals, offsets, cfg):
+    """The kernel in float64 (the comparison checks the formula, not float32 pixel flips)."""
+    with jax.enable_x64(True):
+        view = prepare_view(obs)
+        view = jax.tree_util.tree_map(
+            lambda x: x.astype(jnp.float64) if jnp.issubdtype(x.dtype, jnp.floating) else x, view
+        )
+        T = np.asarray(obs.camera.T_world_cam)
+        view = dataclasses.replace(
+            view,
+            points=jnp.asarray(obs.points, jnp.float64),
+            R_wc=jnp.asarray(T[:3, :3], jnp.float64),
+            t_wc=jnp.asarray(T[:3, 3], jnp.float64),
+            K=jnp.asarray(obs.camera.K, jnp.float64),
+        )
+        out, inside, _ = score_planes(
+            view,
+            jnp.asarray(normals, jnp.float64),
+            jnp.asarray(offsets, jnp.float64),
+            cfg,
+        )
+        return np.asarray(out), np.asarray(inside)
+
+
+@pytest.mark.parametrize("normalize", ["subset", "all"])
+def test_hidden_points_are_in_neither_subset(occluded, normalize, strict_ranks):
+    normals, offsets = _planes()
+    hidden = _hidden_counts(occluded, normals, offsets)
+    assert (hidden > 50).sum() >= 5, "the occluder must hide mirrored points of several planes"
+    cfg = SymmetryConfig(normalize=normalize)
+    ref_out, ref_in = score_planes_numpy(occluded, normals, offsets, cfg)
+    out, inside = _float64_scores(occluded, normals, offsets, cfg)
+    np.testing.assert_allclose(out, ref_out, rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(inside, ref_in, rtol=1e-5, atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def unoccluded():
+    return _scenes.view("bottle", 1.1, noise=0.001, seed=2)[0]
+
+
+def test_the_occluder_loop_changes_nothing_without_occluders(unoccluded, strict_ranks):
+    view = prepare_view(unoccluded)
+    assert not bool(view.occluded)
+    normals, offsets = _planes(24, seed=1)
+    args = (view, jnp.asarray(normals, jnp.float32), jnp.asarray(offsets, jnp.float32))
+    plain = score_planes(*args, SymmetryConfig())
+    looking = score_planes(*args, SymmetryConfig(), occluded=True)
+    for a, b in zip(plain, looking, strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_the_view_marks_occluder_pixels(occluded):
+    view = prepare_view(occluded)
+    mask, depth = np.asarray(occluded.mask), np.asarray(occluded.depth)
+    occ = ~mask & (depth > 0)
+    assert bool(view.occluded) and occ.any()
+    np.testing.assert_allclose(view.image[occ] - OCCLUDER_OFFSET, depth[occ], atol=1e-4)
+    seen = mask & (depth > 0)
+    np.testing.assert_array_equal(view.image[seen], depth[seen])
+    assert np.all(view.image[~mask & ~occ] <= -1.0)
+
+
+def test_depth_beyond_the_offset_is_refused(occluded):
+    depth = np.asarray(occluded.depth).copy()
+    depth[0, 0] = OCCLUDER_OFFSET + 1.0
+    with pytest.raises(InvalidInputError, match="below"):
+        prepare_view(dataclasses.replace(occluded, depth=depth))
+
+
+@pytest.mark.parametrize(
+    ("kinds", "seed", "k"),
+    [
+        # Benchmark clutter scenes 20 and 10 of the 30: a box and a can behind nearer objects
+        # whose planes came out 32 and 27 mm off when the hidden points counted inside.
+        (("box", "box", "bottle", "box", "can", "box"), 36, 3),
+        (("bottle", "can", "can", "box", "box", "can", "box"), 25, 2),
+    ],
+)
+def test_separated_object_behind_its_occluder_finds_its_plane(kinds, seed, k):
+    sc = clutter_scene(kinds, seed=seed)
+    res = segment(sc.depth, sc.camera, configs.load("clutter").segmentation)
+    ious, match = match_ious(sc.truth, res)
+    assert ious[k] >= 0.85 and res.info[match[k]].occluded_by
+    out = search(res.objects[match[k]])
+    deg, dist = plane_error(sc, k, out.normal, out.offset)
+    assert deg <= 10.0 and dist <= 0.010, (deg, dist)
