@@ -150,8 +150,8 @@ def search_view(
 ) -> SymmetryResult:
     """The whole search for one view (traced; jit and vmap are applied by the callers).
 
-    ``gate`` and ``occluded`` are the unbatched scalars of :func:`score_planes`;
-    ``chunk_planes`` its chunk size
+    ``gate`` and ``occluded`` are the unbatched scalars of :func:`score_planes` (``occluded``
+    defaults to the view's own flag); ``chunk_planes`` its chunk size
     (:attr:`symjax.execution.ExecutionConfig.symmetry_chunk_hypotheses`).
     """
     occluded = view.occluded if occluded is None else occluded
