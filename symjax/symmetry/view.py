@@ -140,14 +140,19 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
         )
     if n_points is not None:
         obs = obs.padded(n_points)
-    if depth.size and float(depth.max()) >= OCCLUDER_OFFSET:
+    deepest = float(depth.max()) if depth.size else 0.0
+    if deepest >= OCCLUDER_OFFSET:
         raise InvalidInputError(
-            f"depth image reaches {float(depth.max()):.4g} m; expected depths below"
-            f" {OCCLUDER_OFFSET:g} m (a table-top view)"
+            f"depth image reaches {deepest:.4g} m; expected depths below {OCCLUDER_OFFSET:g} m"
+            " (a table-top view)"
         )
     dt = mask_distance(mask, depth)
     occluder = ~mask & (depth > 0)
-    seen = np.where(occluder, depth + np.float32(OCCLUDER_OFFSET), depth)
+    occluded = bool(occluder.any())
+    seen = depth
+    if occluded:  # (most views have none: no copy of the image then)
+        seen = depth.copy()
+        np.add(seen, np.float32(OCCLUDER_OFFSET), out=seen, where=occluder)
     T = np.asarray(obs.camera.T_world_cam, np.float64)
     return ViewArrays(
         points=aligned(obs.points, np.float32),
@@ -157,5 +162,5 @@ def prepare_view(obs: Observation, n_points: int | None = None) -> ViewArrays:
         t_wc=T[:3, 3].astype(np.float32),
         K=np.asarray(obs.camera.K, np.float32),
         image=aligned(np.where(dt > 0, -dt, seen), np.float32),
-        occluded=np.asarray(occluder.any()),
+        occluded=np.asarray(occluded),
     )
