@@ -153,6 +153,13 @@ def _nan_view():
     return bad
 
 
+def _far_depth_view():
+    """A view whose depth image reaches 2 km (the occluders' offset is 1 km)."""
+    depth = np.asarray(VIEW.depth).copy()
+    depth[0, 0] = 2000.0
+    return dataclasses.replace(VIEW, depth=depth)
+
+
 def _same_point_view():
     p = np.asarray(VIEW.points).copy()
     p[:] = p[0]
@@ -338,6 +345,7 @@ CASES = [
     ("search-config-type", lambda d: search(VIEW, {"n_angles": 7}), ConfigError, ["config", "SymmetryConfig", "dict"]),
     ("search-nan-point", lambda d: search(_nan_view()), InvalidInputError, ["NaN or inf", "Observation.create"]),
     ("search-one-point", lambda d: search(_same_point_view()), DegenerateGeometryError, ["0 mm on the table", "0.1 mm"]),
+    ("search-depth-beyond-1km", lambda d: search(_far_depth_view()), InvalidInputError, ["2000 m", "below 1000 m"]),
     ("search-batch-empty", lambda d: search_batch([]), InvalidInputError, ["no observations"]),
     ("search-batch-single", lambda d: search_batch(VIEW), InvalidInputError, ["sequence", "search()"]),
     ("search-batch-item", lambda d: search_batch([VIEW, PTS]), InvalidInputError, ["item 1", "ndarray"]),

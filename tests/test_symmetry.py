@@ -120,17 +120,7 @@ def test_vmapped_scorer_equals_numpy_loop(views, normalize, strict_ranks):
     # The kernel is dtype-generic; run it in float64 so that the comparison checks the formula,
     # not float32 rounding of points lying on a pixel edge.
     with jax.enable_x64(True):
-        view = jax.tree_util.tree_map(
-            lambda x: x.astype(jnp.float64) if jnp.issubdtype(x.dtype, jnp.floating) else x,
-            prepare_view(obs),
-        )
-        view = dataclasses.replace(
-            view,
-            points=jnp.asarray(obs.points, jnp.float64),
-            R_wc=jnp.asarray(np.asarray(obs.camera.T_world_cam)[:3, :3], jnp.float64),
-            t_wc=jnp.asarray(np.asarray(obs.camera.T_world_cam)[:3, 3], jnp.float64),
-            K=jnp.asarray(obs.camera.K, jnp.float64),
-        )
+        view = _scenes.float64_view(obs)
         out, inside, votes = score_planes(
             view, jnp.asarray(normals, jnp.float64), jnp.asarray(offsets, jnp.float64), cfg
         )

@@ -68,20 +68,8 @@ def _hidden_counts(obs: Observation, normals, offsets) -> np.ndarray:
 def _float64_scores(obs: Observation, normals, offsets, cfg):
     """The kernel in float64 (the comparison checks the formula, not float32 pixel flips)."""
     with jax.enable_x64(True):
-        view = prepare_view(obs)
-        view = jax.tree_util.tree_map(
-            lambda x: x.astype(jnp.float64) if jnp.issubdtype(x.dtype, jnp.floating) else x, view
-        )
-        T = np.asarray(obs.camera.T_world_cam)
-        view = dataclasses.replace(
-            view,
-            points=jnp.asarray(obs.points, jnp.float64),
-            R_wc=jnp.asarray(T[:3, :3], jnp.float64),
-            t_wc=jnp.asarray(T[:3, 3], jnp.float64),
-            K=jnp.asarray(obs.camera.K, jnp.float64),
-        )
         out, inside, _ = score_planes(
-            view,
+            _scenes.float64_view(obs),
             jnp.asarray(normals, jnp.float64),
             jnp.asarray(offsets, jnp.float64),
             cfg,
