@@ -33,9 +33,13 @@ def _with_occluder(obs: Observation) -> Observation:
 
 
 @pytest.fixture(scope="module")
-def occluded():
-    obs, _ = _scenes.view("box", 0.4, noise=0.001, seed=3)
-    return _with_occluder(obs)
+def plain_box():
+    return _scenes.view("box", 0.4, noise=0.001, seed=3)[0]
+
+
+@pytest.fixture(scope="module")
+def occluded(plain_box):
+    return _with_occluder(plain_box)
 
 
 def _planes(n: int = 35, seed: int = 0):
@@ -140,3 +144,20 @@ def test_separated_object_behind_its_occluder_finds_its_plane(kinds, seed, k):
     out = search(res.objects[match[k]])
     deg, dist = plane_error(sc, k, out.normal, out.offset)
     assert deg <= 10.0 and dist <= 0.010, (deg, dist)
+
+
+def test_a_vmapped_chunk_scores_its_occluded_view_as_alone(occluded, plain_box):
+    """A chunk holding a view with occluders and one without (one image size, one point
+    bucket: one vmapped call) looks for hidden points in both (the batch's flag): each view's
+    plane and votes are those it gets alone."""
+    from symjax.execution import ExecutionConfig
+    from symjax.symmetry import search_batch
+
+    both = search_batch([occluded, plain_box], execution=ExecutionConfig(symmetry_chunk_views=2))
+    for i, obs in enumerate((occluded, plain_box)):
+        alone = search(obs)
+        np.testing.assert_allclose(np.asarray(both[i].normal), np.asarray(alone.normal), atol=1e-5)
+        np.testing.assert_allclose(float(both[i].offset), float(alone.offset), atol=1e-5)
+        np.testing.assert_allclose(
+            np.asarray(both[i].votes), np.asarray(alone.votes), rtol=2e-3, atol=1e-5
+        )
