@@ -150,11 +150,10 @@ def search_view(
 ) -> SymmetryResult:
     """The whole search for one view (traced; jit and vmap are applied by the callers).
 
-    ``gate`` and ``occluded`` are the unbatched scalars of :func:`score_planes` (``occluded``
-    defaults to the view's own flag); ``chunk_planes`` its chunk size
+    ``gate`` and ``occluded`` are the unbatched scalars of :func:`score_planes` (which reads
+    the view's own flag when ``occluded`` is None); ``chunk_planes`` its chunk size
     (:attr:`symjax.execution.ExecutionConfig.symmetry_chunk_hypotheses`).
     """
-    occluded = view.occluded if occluded is None else occluded
     n = view.table_normal
     c, s, m0, L = _initial_plane(view)
     side = jnp.cross(n, m0)
