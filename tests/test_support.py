@@ -109,3 +109,36 @@ def test_joined_contacts_are_the_contacts_of_the_joined_parts(monkeypatch):
     sc = clutter_scene(("bottle", "can", "bottle", "can", "bottle", "box", "can"), seed=33)
     segment(sc.depth, sc.camera, configs.load("clutter").segmentation)
     assert seen and seen[0] >= 2  # parts were joined
+
+
+def _strip_beside_a_part(strip_top_row: int):
+    """Labels, footprint, height and depth of a part 6 columns wide (0) and a strip 2 columns
+    wide (1) beside it on one surface (no depth step), both from the table up: part 0 to
+    9.6 cm, the strip to its top row (0: 17.4 cm). Footprints: part 0 covers 5 x 5 cm, the strip
+    1 x 1 cm beside it."""
+    H, W = 30, 8
+    rows, cols = np.mgrid[0:H, 0:W]
+    height = (H - 1 - rows) * 0.006
+    labels = np.full((H, W), -1, np.int32)
+    labels[13:, :6] = 0
+    labels[strip_top_row:, 6:] = 1
+    y = np.where(cols < 6, (rows * 7) % 6, (rows * 7) % 2) * 0.01
+    foot = np.stack([cols * 0.01, y], axis=-1).astype(np.float64)
+    depth = np.full((H, W), 0.8, np.float32)
+    return labels, foot, height, depth
+
+
+def test_a_narrow_strip_joins_its_neighbour_unless_it_towers_over_it():
+    # A band of an object's side as tall as it joins it; a bottle's strip seen beside a can,
+    # standing on the table and 8 cm taller, stays an object of its own.
+    from symjax import configs
+    from symjax.perception.support import join_supported
+
+    config = configs.load("clutter").segmentation
+    labels, foot, height, depth = _strip_beside_a_part(13)
+    band = join_supported(labels, foot, height, config, depth)
+    assert (band[labels >= 0] == 0).all()
+    labels, foot, height, depth = _strip_beside_a_part(0)
+    tower = join_supported(labels, foot, height, config, depth)
+    assert tower.max() == 1
+    assert len(np.unique(tower[labels == 1])) == 1 and tower[0, 6] != tower[29, 0]

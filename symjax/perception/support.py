@@ -6,11 +6,13 @@ their support in a concave edge. Objects on a table stand on the table, and two 
 stand on the same piece of it, so a part is joined to an adjacent one when most of its footprint
 lies on that part's footprint (the other part being lower, for a part whose lowest points float
 above the table, or larger otherwise), or when it is too narrow to be an object of its own and
-meets a part without a depth step (stacked objects therefore come out as one hypothesis); a
-part that floats above the table is too narrow when it was so as the creases cut it, before the
-parts above it joined it, and then joins only a part it meets from above (a bottle's shoulder
-with its neck, behind another bottle, goes to the strip of its body below it). An object partly
-hidden behind another is not joined: its footprint lies behind the front one's.
+meets a part without a depth step (stacked objects therefore come out as one hypothesis) and,
+standing on the table itself, does not rise well above it (the strip of a bottle behind a can is
+narrow, but taller than the can); a part that floats above the table is too narrow when it was so
+as the creases cut it, before the parts above it joined it, and then joins only a part it meets
+from above (a bottle's shoulder with its neck, behind another bottle, goes to the strip of its body
+below it). An object partly hidden behind another is not joined: its footprint lies behind the
+front one's.
 """
 
 from __future__ import annotations
@@ -36,6 +38,9 @@ _FOOTPRINT_SLACK = 0.005  # m: a point may lie this far outside the support's fo
 _ON_SUPPORT = 0.8  # ... and this share of the part's points must lie on it
 _RISE = 0.001  # m: mean height step across the contact of a shoulder on its body
 _MIN_TOUCH = 5  # pixel pairs: parts touching less than this are not neighbours
+# m: a narrow part standing on the table whose top is this much higher than a neighbour's is
+# no piece of it (a bottle behind a can, seen as a strip beside it from the table up)
+_TOWER = 0.02
 _MAX_ARC_RADIUS = 0.75  # a round footprint's radius is at most this share of its width ...
 _ARC_TOLERANCE = 0.1  # ... and its points within this share of the radius of the circle
 
@@ -263,6 +268,13 @@ def join_supported(
     # when first needed.
     hulls: dict = {}
     discs: dict = {}
+    tops: dict = {}  # part -> its top height (95th percentile), when first needed
+
+    def top(k: int) -> float:
+        if k not in tops:
+            tops[k] = float(np.percentile(hgt[parts[k][0]], 95))
+        return tops[k]
+
     # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
     for k in sorted(parts, key=lambda k: -parts[k][2]):
         idx, own, low = parts[k]
@@ -283,7 +295,12 @@ def join_supported(
             if j == k or j not in parts:
                 continue
             foot = parts[j][1]
-            if narrow and contact[k, j] > 0 and (not on_top or rise[k, j] > _RISE * contact[k, j]):
+            if (
+                narrow
+                and contact[k, j] > 0
+                and (not on_top or rise[k, j] > _RISE * contact[k, j])
+                and not (low <= config.support_height and top(k) > top(j) + _TOWER)
+            ):
                 gap = float(np.median(np.linalg.norm(foot - own.mean(axis=0), axis=1)))
                 if nearest is None or gap < nearest[1]:
                     nearest = (j, gap)
@@ -314,6 +331,7 @@ def join_supported(
             parts[best][0] = np.concatenate([parts[best][0], idx])
             parts[best][1] = np.concatenate([parts[best][1], parts[k][1]])
             discs.pop(best, None)
+            tops.pop(best, None)
             hulls.pop(best, None)
             for mat in (contact, touch, rise):
                 mat[best] += mat[k]
