@@ -254,12 +254,13 @@ def test_hollow_objects_stay_whole(robot, seed, tmp_path_factory):
 
 def test_colour_image_is_a_further_cue():
     # Two bottles side by side behind two boxes, whose shoulders meet in too shallow a crease:
-    # depth alone joins them, their colours tell them apart. The cans' and bottles' label bands
-    # (colour edges on convex faces) cut nothing.
+    # from depth alone one takes a strip of the other (IoU 0.84; until the neck rule of
+    # perception.support they were one object), their colours tell them apart. The cans' and
+    # bottles' label bands (colour edges on convex faces) cut nothing.
     kinds = ("box", "bottle", "box", "box", "can", "bottle", "bottle")
     sc = clutter_scene(kinds, seed=24)
     assert sc.rgb.shape == sc.depth.shape + (3,) and sc.rgb.dtype == np.uint8
-    assert len(segment(sc.depth, sc.camera, CLUTTER)) == 6
+    assert np.sort(_match_ious(sc.truth, segment(sc.depth, sc.camera, CLUTTER)))[1] < 0.85
     res = segment(sc.depth, sc.camera, CLUTTER, rgb=sc.rgb)
     assert len(res) == 7
     assert np.sort(_match_ious(sc.truth, res))[1] >= 0.85  # all but the hidden bottle's neck

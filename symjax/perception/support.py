@@ -11,8 +11,9 @@ standing on the table itself, does not rise well above it (the strip of a bottle
 narrow, but taller than the can); a part that floats above the table is too narrow when it was so
 as the creases cut it, before the parts above it joined it, and then joins only a part it meets
 from above (a bottle's shoulder with its neck, behind another bottle, goes to the strip of its body
-below it). An object partly hidden behind another is not joined: its footprint lies behind the
-front one's.
+below it); a round narrow part (a neck) joins only a part whose footprint lies around its axis (not
+the neighbour a mostly hidden bottle's neck and shoulder meet level). An object partly hidden
+behind another is not joined: its footprint lies behind the front one's.
 """
 
 from __future__ import annotations
@@ -41,6 +42,9 @@ _MIN_TOUCH = 5  # pixel pairs: parts touching less than this are not neighbours
 # m: a narrow part standing on the table whose top is this much higher than a neighbour's is
 # no piece of it (a bottle behind a can, seen as a strip beside it from the table up)
 _TOWER = 0.02
+# m: a round narrow part (a neck) joins only a part whose footprint lies around its axis, 90 % of
+# it within this distance of its circle's centre (its bottle's body; a neighbour's lies farther)
+_AXIS_REACH = 0.06
 _MAX_ARC_RADIUS = 0.75  # a round footprint's radius is at most this share of its width ...
 _ARC_TOLERANCE = 0.1  # ... and its points within this share of the radius of the circle
 
@@ -275,6 +279,15 @@ def join_supported(
             tops[k] = float(np.percentile(hgt[parts[k][0]], 95))
         return tops[k]
 
+    def around(k: int, j: int) -> bool:
+        # Part j's footprint lies around the axis of part k, if k is round (a neck).
+        if k not in discs:
+            discs[k] = _disc(parts[k][1])
+        if discs[k] is None:
+            return True
+        f = parts[j][1][:: max(1, len(parts[j][1]) // 500)]
+        return float(np.percentile(np.linalg.norm(f - discs[k][0], axis=1), 90)) <= _AXIS_REACH
+
     # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
     for k in sorted(parts, key=lambda k: -parts[k][2]):
         idx, own, low = parts[k]
@@ -300,6 +313,7 @@ def join_supported(
                 and contact[k, j] > 0
                 and (not on_top or rise[k, j] > _RISE * contact[k, j])
                 and not (low <= config.support_height and top(k) > top(j) + _TOWER)
+                and around(k, j)
             ):
                 gap = float(np.median(np.linalg.norm(foot - own.mean(axis=0), axis=1)))
                 if nearest is None or gap < nearest[1]:
