@@ -279,13 +279,13 @@ def join_supported(
             tops[k] = float(np.percentile(hgt[parts[k][0]], 95))
         return tops[k]
 
-    def around(k: int, j: int) -> bool:
-        # Part j's footprint lies around the axis of part k, if k is round (a neck).
+    def around(k: int, foot: np.ndarray) -> bool:
+        # The footprint (N, 2) lies around the axis of part k, if k is round (a neck).
         if k not in discs:
             discs[k] = _disc(parts[k][1])
         if discs[k] is None:
             return True
-        f = parts[j][1][:: max(1, len(parts[j][1]) // 500)]
+        f = foot[:: max(1, len(foot) // 500)]
         return float(np.percentile(np.linalg.norm(f - discs[k][0], axis=1), 90)) <= _AXIS_REACH
 
     # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
@@ -313,7 +313,7 @@ def join_supported(
                 and contact[k, j] > 0
                 and (not on_top or rise[k, j] > _RISE * contact[k, j])
                 and not (low <= config.support_height and top(k) > top(j) + _TOWER)
-                and around(k, j)
+                and around(k, foot)
             ):
                 gap = float(np.median(np.linalg.norm(foot - own.mean(axis=0), axis=1)))
                 if nearest is None or gap < nearest[1]:
