@@ -255,3 +255,22 @@ def test_segmented_object_feeds_symmetry_search(scenes):
     assert abs(float(n @ np.asarray(res.table.normal))) < 1e-3
     c = res.info[0].centroid
     assert abs(float(n @ c) - float(out.offset)) < 0.1
+
+
+def test_held_out_scenes_follow_the_examined_ones(monkeypatch):
+    # Held out means drawn after every scene the segmentation's rules were made on: the same
+    # draw, later seeds, none repeated.
+    from symjax.perception import clutter_benchmark as cb
+
+    monkeypatch.setattr(cb, "EXAMINED_CLUTTER", 2)
+    for pairs in ("PAIRS", "BEHIND"):  # (not rendered: the clutter draw is what is checked)
+        monkeypatch.setattr(cb, pairs, ())
+    examined = [sc for g, sc in cb.benchmark_scenes(2) if g == "clutter"]
+    held = cb.held_out_scenes(2)
+    assert [g for g, _ in held] == ["clutter_held_out"] * 2
+    seeds = [sc.recipe["seed"] for _, sc in held]
+    assert min(seeds) > max(sc.recipe["seed"] for sc in examined)
+    assert seeds == sorted(set(seeds))
+    np.testing.assert_array_equal(
+        held[0][1].depth, cb.clutter_scene(held[0][1].recipe["kinds"], seed=seeds[0]).depth
+    )

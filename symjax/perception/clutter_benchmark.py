@@ -11,7 +11,9 @@ from symjax.perception.config import SegmentationConfig
 from symjax.perception.synthetic import SyntheticScene, clutter_scene
 
 __all__ = [
+    "EXAMINED_CLUTTER",
     "benchmark_scenes",
+    "held_out_scenes",
     "match_ious",
     "plane_error",
     "scan_scenes",
@@ -23,6 +25,9 @@ PAIRS = (("box", "can"), ("can", "can"), ("bottle", "box"))
 BEHIND = (("box", "can"), ("can", "box"))
 MIN_VISIBLE_PX = 1500  # clutter objects must show this much of themselves to be findable
 HIDDEN_PX = 300  # scan-scene objects showing less are hidden (a 26-pixel corner is not findable)
+#: The clutter scenes of the draw that were looked at while the segmentation's rules were made;
+#: the scenes drawn after them are held out (:func:`held_out_scenes`).
+EXAMINED_CLUTTER = 90
 
 
 def benchmark_scenes(n_clutter: int = 30) -> list[tuple[str, SyntheticScene]]:
@@ -41,6 +46,14 @@ def benchmark_scenes(n_clutter: int = 30) -> list[tuple[str, SyntheticScene]]:
             out.append(("clutter", sc))
             found += 1
     return out
+
+
+def held_out_scenes(n: int = 90) -> list[tuple[str, SyntheticScene]]:
+    """``("clutter_held_out", scene)``: the ``n`` clutter scenes drawn after the first
+    :data:`EXAMINED_CLUTTER` (the same draw as :func:`benchmark_scenes`), none of which was
+    looked at while the segmentation's rules were made: what to expect on new clutter."""
+    drawn = [sc for g, sc in benchmark_scenes(EXAMINED_CLUTTER + n) if g == "clutter"]
+    return [("clutter_held_out", sc) for sc in drawn[EXAMINED_CLUTTER:]]
 
 
 def scan_scenes(n: int = 8) -> list[tuple[str, SyntheticScene]]:
