@@ -115,7 +115,7 @@ def _strip_beside_a_part(strip_top_row: int):
     """Labels, footprint, height and depth of a part 6 columns wide (0) and a strip 2 columns
     wide (1) beside it on one surface (no depth step), both from the table up: part 0 to
     9.6 cm, the strip to its top row (0: 17.4 cm). Footprints: part 0 covers 5 x 5 cm, the strip
-    1 x 1 cm beside it."""
+    a line 1.45 cm long beside it."""
     H, W = 30, 8
     rows, cols = np.mgrid[0:H, 0:W]
     height = (H - 1 - rows) * 0.006

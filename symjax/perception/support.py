@@ -279,14 +279,17 @@ def join_supported(
             tops[k] = float(np.percentile(hgt[parts[k][0]], 95))
         return tops[k]
 
-    def around(k: int, foot: np.ndarray) -> bool:
-        # The footprint (N, 2) lies around the axis of part k, if k is round (a neck).
+    def disc(k: int):
         if k not in discs:
             discs[k] = _disc(parts[k][1])
-        if discs[k] is None:
+        return discs[k]
+
+    def around(k: int, foot: np.ndarray) -> bool:
+        # The footprint (N, 2) lies around the axis of part k, if k is round (a neck).
+        if disc(k) is None:
             return True
         f = foot[:: max(1, len(foot) // 500)]
-        return float(np.percentile(np.linalg.norm(f - discs[k][0], axis=1), 90)) <= _AXIS_REACH
+        return float(np.percentile(np.linalg.norm(f - disc(k)[0], axis=1), 90)) <= _AXIS_REACH
 
     # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
     for k in sorted(parts, key=lambda k: -parts[k][2]):
@@ -330,11 +333,7 @@ def join_supported(
             # A round part's footprint is an arc: what lies within its circle is inside it (the
             # inside of a mug or a bowl behind the front of its wall, or the front of the wall
             # before the inside whose circle holds it).
-            if j not in discs:
-                discs[j] = _disc(foot)
-            if k not in discs:
-                discs[k] = _disc(parts[k][1])
-            if _within(own, discs[j]) or _within(foot, discs[k]):
+            if _within(own, disc(j)) or _within(foot, disc(k)):
                 best = j
                 break
         # A narrow part without a part to stand on goes to the part it meets without a depth
