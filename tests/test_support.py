@@ -149,7 +149,8 @@ def test_a_narrow_strip_joins_its_neighbour_unless_it_towers_over_it():
 def _neck_above(body: str):
     """A round neck (part 1, 12 mm radius, floating 15-20 cm high) above part 0 on one surface
     (no depth step): ``"strip"`` a narrow strip of a body around the neck's axis (an arc of
-    33 mm radius, from the table up), ``"neighbour"`` a 5 cm wide object centred 10 cm away."""
+    33 mm radius, from the table up), ``"neighbour"`` a 5 cm wide object centred 10 cm away,
+    ``"box"`` a 13 x 6 cm box whose footprint reaches under the neck's (its centre 6 cm away)."""
     H, W = 30, 8
     rows, cols = np.mgrid[0:H, 0:W]
     height = np.where(rows < 10, 0.20 - rows * 0.005, (H - 1 - rows) * 0.0075)
@@ -159,6 +160,8 @@ def _neck_above(body: str):
     if body == "strip":
         a = np.pi / 3 + (t - t[10, 0]) / (t[-1, -1] - t[10, 0]) * np.pi / 3
         part0 = np.stack([0.033 * np.cos(a), -0.033 * np.sin(a)], axis=-1)
+    elif body == "box":
+        part0 = np.stack([0.13 * cols / (W - 1) - 0.01, 0.06 * (rows % 6) / 5 - 0.04], -1)
     else:
         part0 = np.stack([0.075 + 0.05 * (cols / (W - 1)), 0.05 * (rows % 6) / 5 - 0.025], -1)
     foot = np.where((rows >= 10)[..., None], part0, foot)
@@ -177,5 +180,18 @@ def test_a_neck_joins_the_body_around_its_axis_not_a_neighbour():
     strip = join_supported(labels, foot, height, config, depth)
     assert (strip[labels >= 0] == 0).all()
     labels, foot, height, depth = _neck_above("neighbour")
+    apart = join_supported(labels, foot, height, config, depth)
+    assert apart.max() == 1 and apart[0, 0] != apart[29, 0]
+
+
+def test_a_neck_over_a_neighbours_footprint_joins_it_only_around_its_axis():
+    # A bottle's neck and shoulder behind a box, floating above it with the footprint at the
+    # box's edge, stood on the box (the footprint rule; 3 scenes of 180); the box lies off the
+    # neck's axis, while the neck's own body strip lies around it.
+    from symjax import configs
+    from symjax.perception.support import join_supported
+
+    config = configs.load("clutter").segmentation
+    labels, foot, height, depth = _neck_above("box")
     apart = join_supported(labels, foot, height, config, depth)
     assert apart.max() == 1 and apart[0, 0] != apart[29, 0]

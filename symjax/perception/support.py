@@ -11,9 +11,10 @@ standing on the table itself, does not rise well above it (the strip of a bottle
 narrow, but taller than the can); a part that floats above the table is too narrow when it was so
 as the creases cut it, before the parts above it joined it, and then joins only a part it meets
 from above (a bottle's shoulder with its neck, behind another bottle, goes to the strip of its body
-below it); a round narrow part (a neck) joins only a part whose footprint lies around its axis (not
-the neighbour a mostly hidden bottle's neck and shoulder meet level). An object partly hidden
-behind another is not joined: its footprint lies behind the front one's.
+below it); a round part (a neck) joins only a part whose footprint lies around its axis, by any of
+these rules (not the neighbour a mostly hidden bottle's neck and shoulder meet level, nor the box
+their footprint reaches into at its edge). An object partly hidden behind another is not joined:
+its footprint lies behind the front one's.
 """
 
 from __future__ import annotations
@@ -42,8 +43,9 @@ _MIN_TOUCH = 5  # pixel pairs: parts touching less than this are not neighbours
 # m: a narrow part standing on the table whose top is this much higher than a neighbour's is
 # no piece of it (a bottle behind a can, seen as a strip beside it from the table up)
 _TOWER = 0.02
-# m: a round narrow part (a neck) joins only a part whose footprint lies around its axis, 90 % of
-# it within this distance of its circle's centre (its bottle's body; a neighbour's lies farther)
+# m: a round part (a neck) joins only a part whose footprint lies around its axis, 90 % of it
+# within this distance plus the part's radius of its circle's centre (its bottle's body; a
+# neighbour's lies farther; a bowl's wider rim reaches farther)
 _AXIS_REACH = 0.06
 _MAX_ARC_RADIUS = 0.75  # a round footprint's radius is at most this share of its width ...
 _ARC_TOLERANCE = 0.1  # ... and its points within this share of the radius of the circle
@@ -289,7 +291,8 @@ def join_supported(
         if disc(k) is None:
             return True
         f = foot[:: max(1, len(foot) // 500)]
-        return float(np.percentile(np.linalg.norm(f - disc(k)[0], axis=1), 90)) <= _AXIS_REACH
+        reach = float(np.percentile(np.linalg.norm(f - disc(k)[0], axis=1), 90))
+        return reach <= _AXIS_REACH + disc(k)[1]
 
     # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
     for k in sorted(parts, key=lambda k: -parts[k][2]):
@@ -324,6 +327,8 @@ def join_supported(
             # Floating parts may stand on a lower part; any part may lie within a larger one's
             # footprint (a band of an object's side cut off by a crease across it).
             if parts[j][2] >= low if low > config.support_height else len(foot) <= len(idx):
+                continue
+            if not around(k, foot):  # a neck stands on its own body, not a neighbour
                 continue
             if j not in hulls:
                 hulls[j] = convex_hull_2d(foot[:: max(1, len(foot) // 4000)])
