@@ -89,6 +89,11 @@ class SegmentationConfig:
             part more than this outside its circle go to a neighbour whose footprint holds them.
         round_residual: A part's wall is round when its points lie within this median distance
             (m) of a circle.
+        halves_extent: Metres; 0 = off. Two parts that do not touch, lie behind one nearer part
+            and reach the same top height are the halves of one object that the nearer one cuts
+            apart (a box behind a bottle's neck), joined when together they are at most this wide
+            on the table (:mod:`symjax.perception.occluded_halves`): the widest object expected;
+            the pieces of two objects behind one occluder stand farther apart.
         split_bridges_px: A cluster that erosion by a disc of this radius (pixels) breaks into
             two or more cores of ``min_cluster_points`` seed pixels is split there: two touching
             objects joined through a few pixels where the crease and the depth step both missed
@@ -136,6 +141,7 @@ class SegmentationConfig:
     split_bridges_px: int = 0
     round_margin: float = 0.0
     round_residual: float = 0.001
+    halves_extent: float = 0.0
     object_holes: bool = False
     seed: int = 0
 
@@ -219,6 +225,8 @@ class SegmentationConfig:
             )
         if not (math.isfinite(self.round_margin) and self.round_margin >= 0):
             raise ConfigError(f"round_margin must be >= 0 m (0 = off), got {self.round_margin}")
+        if not (math.isfinite(self.halves_extent) and self.halves_extent >= 0):
+            raise ConfigError(f"halves_extent must be >= 0 m (0 = off), got {self.halves_extent}")
         if not (math.isfinite(self.round_residual) and self.round_residual > 0):
             raise ConfigError(f"round_residual must be > 0 m, got {self.round_residual}")
         if self.border_px < 0 or self.touch_px < 0:

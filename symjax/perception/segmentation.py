@@ -42,6 +42,7 @@ from symjax.perception.object_info import (
     describe_objects,
     occluder_depth,
 )
+from symjax.perception.occluded_halves import join_occluded_halves
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
 from symjax.perception.round_parts import settle_round_parts
 from symjax.perception.support import join_supported, table_footprint
@@ -162,6 +163,7 @@ def _segment_depth(
                 lab, smooth = join_supported(
                     lab, foot, height[sl], cfg, depth=conn[sl], with_contacts=True
                 )
+                lab, smooth = join_occluded_halves(lab, foot, height[sl], conn[sl], smooth, cfg)
                 if cfg.round_margin > 0:  # (joins relabel parts, not pixels: foot holds)
                     lab = settle_round_parts(lab, foot, height[sl], conn[sl], cfg, smooth)
             lab[~valid[sl]] = -1

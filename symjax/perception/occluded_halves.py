@@ -1,0 +1,126 @@
+"""The two halves of one object that a nearer object cuts apart, joined.
+
+A box behind a bottle's neck shows its face on either side of the neck; nothing joins the two
+pieces in the image, so the crease cut finds two objects. Two halves of one object do not touch
+each other, both lie behind one nearer part along their boundaries, and reach the same top height
+(the object's lid or rim, seen on both sides); where either half stands on an arc of the table (a
+round wall), both stand on one arc; and together they are no wider than one object. Distinct
+objects behind one occluder rarely meet all of these: their tops differ, they touch each other,
+their arcs are two, or together they are wider than any object (two bottles of one height behind a
+can stand 20 cm apart).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from symjax.perception.config import SegmentationConfig
+from symjax.perception.support import (
+    _MIN_TOUCH,
+    _by_size,
+    _extent,
+    _round_footprint,
+    part_pixels,
+)
+
+__all__ = ["join_occluded_halves", "occluders"]
+
+#: Metres: the largest difference of the two halves' top heights (95th percentile of each).
+_SAME_TOP = 0.001
+
+
+def occluders(labels: np.ndarray, depth: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Which parts lie in front of which, from their 4-neighbour pixel pairs.
+
+    Args:
+        labels: (H, W) int parts, -1 none.
+        depth: (H, W) metres.
+        step: Metres: a pair whose depths differ by more is an occluding edge.
+
+    Returns:
+        ``(nearer, touch)``, each (K, K): ``nearer[i, j]`` the pairs where part i lies nearer
+        than part j by more than ``step``; ``touch`` all pairs of the two parts (symmetric).
+    """
+    n = int(labels.max(initial=-1)) + 1
+    nearer = np.zeros(n * n, np.int64)
+    touch = np.zeros(n * n, np.int64)
+    for a, b, za, zb in (
+        (labels[:, :-1], labels[:, 1:], depth[:, :-1], depth[:, 1:]),
+        (labels[:-1], labels[1:], depth[:-1], depth[1:]),
+    ):
+        pair = (a != b) & (a >= 0) & (b >= 0)
+        a, b, za, zb = a[pair].astype(np.int64), b[pair].astype(np.int64), za[pair], zb[pair]
+        touch += np.bincount(a * n + b, minlength=n * n)
+        nearer += np.bincount((a * n + b)[za < zb - step], minlength=n * n)
+        nearer += np.bincount((b * n + a)[zb < za - step], minlength=n * n)
+    touch = touch.reshape(n, n)
+    return nearer.reshape(n, n), touch + touch.T
+
+
+def _footprint_width(foot: np.ndarray) -> float:
+    """Robust width (m) of a footprint (N, 2) along its principal axis."""
+    f = foot[:: max(1, len(foot) // 2000)]
+    f = f - f.mean(axis=0)
+    _, _, vt = np.linalg.svd(f, full_matrices=False)
+    return float(np.max(_extent(f @ vt.T)))
+
+
+def join_occluded_halves(
+    labels: np.ndarray,
+    foot: np.ndarray,
+    height: np.ndarray,
+    depth: np.ndarray,
+    smooth: np.ndarray,
+    config: SegmentationConfig,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Joins pairs of parts that one nearer part separates (see the module docstring).
+
+    Args:
+        labels: (H, W) int32 parts, -1 none.
+        foot: (H, W, 2) the pixels' points in a basis of the table plane, metres, where
+            ``labels >= 0`` (:func:`symjax.perception.support.table_footprint`).
+        height: (H, W) height above the table, metres.
+        depth: (H, W) metres.
+        smooth: (K, K) the parts' pixel pairs on one surface (``join_supported``'s contacts).
+        config: ``halves_extent`` (the widest two halves may be together, m; 0 = off) and
+            ``depth_jump`` (the step by which the occluder lies nearer).
+
+    Returns:
+        ``(labels, smooth)`` renumbered by decreasing size, the inputs where nothing joins.
+    """
+    n = int(labels.max(initial=-1)) + 1
+    if n < 3 or config.halves_extent <= 0:
+        return labels, smooth
+    nearer, touch = occluders(labels, depth, config.depth_jump)
+    front = nearer >= _MIN_TOUCH  # [c, a]: c lies in front of a along a boundary
+    order, starts, count = part_pixels(labels, n)
+    hgt, flat = height.ravel(), foot.reshape(-1, 2)
+    idx = [order[starts[k] : starts[k + 1]] for k in range(n)]
+    top = np.array([np.percentile(hgt[i], 95) if len(i) else np.nan for i in idx])
+    owner = np.arange(n)
+    for a in range(n):
+        for b in range(a + 1, n):
+            # The cheap tests first: most pairs differ in height or touch.
+            if touch[a, b] or not abs(top[a] - top[b]) <= _SAME_TOP:
+                continue
+            if not np.any(front[:, a] & front[:, b]):
+                continue
+            both = np.concatenate([flat[idx[a]], flat[idx[b]]])
+            if _footprint_width(both) > config.halves_extent:
+                continue
+            fa, fb = flat[idx[a]], flat[idx[b]]
+            if (_round_footprint(fa) is not None or _round_footprint(fb) is not None) and (
+                _round_footprint(both) is None
+            ):
+                continue
+            owner[owner == owner[b]] = owner[a]
+    if (owner == np.arange(n)).all():
+        return labels, smooth
+    rank = _by_size(np.bincount(owner, weights=count, minlength=n).astype(np.int64))
+    joined = np.append(rank[owner], np.int32(-1))[labels]
+    # The halves do not touch: the joined parts' contacts are the sums of theirs.
+    m = int(rank.max()) + 1
+    out = np.zeros((m, m), smooth.dtype)
+    np.add.at(out, (rank[owner][:, None], rank[owner][None, :]), smooth)
+    np.fill_diagonal(out, 0)
+    return joined, out
