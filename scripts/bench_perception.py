@@ -15,11 +15,11 @@ given the colour image, and, as the reference, with the default; the same for 16
 of the grasp cycle (objects standing apart: what the crease cut costs on mugs, cups and bowls);
 the symmetry plane of every separated object against the truth and against the same object
 rendered alone; and the time of a 640x480 and a 1280x720 clutter frame. With
-``--held-out-scenes 90`` also the clutter scenes drawn after the 90 that the segmentation's rules
-were made on (``symjax.perception.clutter_benchmark.held_out_scenes``).
+``--held-out-scenes 180`` also the clutter scenes drawn after the 270 that the segmentation's
+rules were made on (``symjax.perception.clutter_benchmark.held_out_scenes``).
 
 Usage: ``python scripts/bench_perception.py [--repeats 20] [--clutter-scenes 30]
-[--held-out-scenes 90]``
+[--held-out-scenes 180]``
 """
 
 from __future__ import annotations
@@ -161,8 +161,8 @@ class Args(PresetArgs):
     """Scenes of 5-8 objects in the accuracy case (30: with 10, one scene moved the share of
     scenes with every object found by 10 points)."""
     held_out_scenes: int = 0
-    """Clutter scenes drawn after the 90 the segmentation's rules were made on, scored too
-    (``clutter_accuracy_clutter_held_out``; 90 takes about two minutes more); 0 = none."""
+    """Clutter scenes drawn after the 270 the segmentation's rules were made on, scored too
+    (``clutter_accuracy_clutter_held_out``; 180 take about four minutes more); 0 = none."""
 
 
 def main(argv=None) -> int:
