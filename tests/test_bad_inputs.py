@@ -427,6 +427,7 @@ CASES = [
     ("segmentation-round-margin", lambda d: perception.SegmentationConfig(round_margin=-0.004), ConfigError, ["round_margin", ">= 0", "-0.004"]),
     ("segmentation-round-margin-nan", lambda d: perception.SegmentationConfig(round_margin=float("nan")), ConfigError, ["round_margin", "nan"]),
     ("segmentation-halves-extent", lambda d: perception.SegmentationConfig(halves_extent=-0.15), ConfigError, ["halves_extent", ">= 0", "-0.15"]),
+    ("segmentation-level-top-px", lambda d: perception.SegmentationConfig(level_top_px=-6), ConfigError, ["level_top_px", ">= 0", "-6"]),
     ("segmentation-halves-extent-inf", lambda d: perception.SegmentationConfig(halves_extent=float("inf")), ConfigError, ["halves_extent", "inf"]),
     ("segmentation-round-residual", lambda d: perception.SegmentationConfig(round_residual=0.0), ConfigError, ["round_residual", "> 0", "0.0"]),
     ("segmentation-colour-weight", lambda d: perception.SegmentationConfig(colour_weight=-1.0), ConfigError, ["colour_weight", ">= 0", "-1.0"]),

@@ -12,6 +12,7 @@ import numpy as np
 
 from symjax.perception.bridges import grow_cores, rejoin_smooth, thin_bridges
 from symjax.perception.config import SegmentationConfig
+from symjax.perception.level_tops import level_top_waists
 
 __all__ = [
     "cloud_clusters",
@@ -79,6 +80,7 @@ def image_clusters(
         far_edge |= (nb > 0) & (depth - nb > thr)
     if crease is not None:
         far_edge |= crease
+        far_edge |= level_top_waists(candidate & ~far_edge, height, config)
     rim = component = None
     if config.split_bridges_px > 0:
         # On the depth cues alone: colour edges leave thin strips inside objects that erosion

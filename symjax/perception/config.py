@@ -94,6 +94,10 @@ class SegmentationConfig:
             apart (a box behind a bottle's neck), joined when together they are at most this wide
             on the table (:mod:`symjax.perception.occluded_halves`): the widest object expected;
             the pieces of two objects behind one occluder stand farther apart.
+        level_top_px: Pixels; 0 = off. With creases, a part whose top region (the pixels within
+            5 mm of its top) erosion by a disc of this radius parts into two tops is cut where
+            they meet, when both pieces stand on the table: two touching objects of one height
+            meet level there (:mod:`symjax.perception.level_tops`).
         split_bridges_px: A cluster that erosion by a disc of this radius (pixels) breaks into
             two or more cores of ``min_cluster_points`` seed pixels is split there: two touching
             objects joined through a few pixels where the crease and the depth step both missed
@@ -142,6 +146,7 @@ class SegmentationConfig:
     round_margin: float = 0.0
     round_residual: float = 0.001
     halves_extent: float = 0.0
+    level_top_px: int = 0
     object_holes: bool = False
     seed: int = 0
 
@@ -218,6 +223,10 @@ class SegmentationConfig:
         if self.claim_dropouts_px < 0:
             raise ConfigError(
                 f"claim_dropouts_px must be >= 0 pixels (0 = off), got {self.claim_dropouts_px}"
+            )
+        if self.level_top_px < 0:
+            raise ConfigError(
+                f"level_top_px must be >= 0 pixels (0 = off), got {self.level_top_px}"
             )
         if self.split_bridges_px < 0:
             raise ConfigError(

@@ -1,0 +1,86 @@
+"""Two touching objects of one height, apart where their tops meet level.
+
+Two cans of one height side by side, or a can against a box as high, touch along a vertical line;
+their walls meet there in a concave crease, but their tops meet level: one horizontal plane across
+both, without a crease or a depth step, so the two come out as one object. Seen from above, the
+two tops (a lid, a box top) form one plane region with a waist where they touch (two discs
+touching at a point part by less than a pixel for about a centimetre either side). Eroding the
+top region by a disc wider than the waist parts it into one core per top; the pixels where the
+nearest core changes are cut, as a crease is, when each piece then reaches down to the table (two
+objects standing on it; not the top of one object cut from its body).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from symjax.perception.config import SegmentationConfig
+
+__all__ = ["level_top_waists"]
+
+_TOP_BAND = 0.005  # m: the top region is the pixels within this of a part's top (98th percentile)
+_MIN_TOP_PX = 300  # pixels: an eroded top core smaller than this is no object's top
+_CUT_PX = 2  # pixels: the cut between two cores is widened by this (the walls below the rims)
+_STANDS = 0.05  # m: each piece's 5th-percentile height is at most this (it stands on the table)
+
+
+def _disk(r: int) -> np.ndarray:
+    import cv2
+
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+
+
+def level_top_waists(
+    mask: np.ndarray, height: np.ndarray, config: SegmentationConfig
+) -> np.ndarray:
+    """Pixels to cut where the tops of two touching objects meet level.
+
+    Args:
+        mask: (H, W) bool object pixels not yet cut (candidates less steps and creases).
+        height: (H, W) height above the table, metres.
+        config: ``level_top_px``, the radius (pixels) of the erosion that parts two tops at
+            their waist (0 = off).
+
+    Returns:
+        (H, W) bool pixels to cut (none where no part holds two level tops).
+    """
+    import cv2
+
+    out = np.zeros(mask.shape, bool)
+    r = config.level_top_px
+    if r <= 0 or not mask.any():
+        return out
+    n, lab, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=4)
+    for k in np.flatnonzero(stats[:, cv2.CC_STAT_AREA] >= 2 * _MIN_TOP_PX):
+        if k == 0:
+            continue
+        x, y, w, h = stats[k, :4]
+        sl = (slice(y, y + h), slice(x, x + w))
+        part, hgt = lab[sl] == k, height[sl]
+        top = part & (hgt > np.percentile(hgt[part], 98) - _TOP_BAND)
+        if top.sum() < 2 * _MIN_TOP_PX:
+            continue
+        # Padded so that the image border does not erode the top.
+        pad = cv2.erode(np.pad(top, r + 1).astype(np.uint8), _disk(r))
+        core = pad[r + 1 : -r - 1, r + 1 : -r - 1]
+        _, cores, cstats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
+        big = np.flatnonzero(cstats[:, cv2.CC_STAT_AREA] >= _MIN_TOP_PX)
+        big = big[big > 0]
+        if len(big) < 2:
+            continue
+        dist = [cv2.distanceTransform((cores != c).astype(np.uint8), cv2.DIST_L2, 3) for c in big]
+        nearest = np.where(top, np.argmin(np.stack(dist), axis=0), -1)
+        edge = np.zeros_like(top)
+        for a, b, e in (
+            (nearest[:, 1:], nearest[:, :-1], edge[:, 1:]),
+            (nearest[1:], nearest[:-1], edge[1:]),
+        ):
+            e |= (a != b) & (a >= 0) & (b >= 0)
+        cut = part & (cv2.dilate(edge.astype(np.uint8), _disk(_CUT_PX)) > 0)
+        # Each piece the cut leaves around a core must stand on the table.
+        _, pieces = cv2.connectedComponents((part & ~cut).astype(np.uint8), connectivity=4)
+        owners = {int(np.bincount(pieces[cores == c]).argmax()) for c in big} - {0}
+        if len(owners) < 2 or any(np.percentile(hgt[pieces == p], 5) > _STANDS for p in owners):
+            continue
+        out[sl] |= cut
+    return out
