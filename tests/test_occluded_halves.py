@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from _pixel_pairs import pixel_pairs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -19,21 +20,13 @@ CFG = configs.load("clutter").segmentation
 def _loop(labels, depth, step):
     n = int(labels.max(initial=-1)) + 1
     nearer, touch = np.zeros((n, n), int), np.zeros((n, n), int)
-    H, W = labels.shape
-    for r in range(H):
-        for c in range(W):
-            for r2, c2 in ((r, c + 1), (r + 1, c)):
-                if r2 >= H or c2 >= W:
-                    continue
-                a, b = labels[r, c], labels[r2, c2]
-                if a < 0 or b < 0 or a == b:
-                    continue
-                touch[a, b] += 1
-                touch[b, a] += 1
-                if depth[r, c] < depth[r2, c2] - step:
-                    nearer[a, b] += 1
-                if depth[r2, c2] < depth[r, c] - step:
-                    nearer[b, a] += 1
+    for a, b, p, q in pixel_pairs(labels):
+        touch[a, b] += 1
+        touch[b, a] += 1
+        if depth[p] < depth[q] - step:
+            nearer[a, b] += 1
+        if depth[q] < depth[p] - step:
+            nearer[b, a] += 1
     return nearer, touch
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from _pixel_pairs import pixel_pairs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -13,22 +14,14 @@ from symjax.perception.support import contacts, table_footprint
 def _loop(labels, depth, max_step, height):
     n = int(labels.max(initial=-1)) + 1
     smooth, touch, rise = np.zeros((n, n), int), np.zeros((n, n), int), np.zeros((n, n))
-    H, W = labels.shape
-    for r in range(H):
-        for c in range(W):
-            for r2, c2 in ((r, c + 1), (r + 1, c)):
-                if r2 >= H or c2 >= W:
-                    continue
-                a, b = labels[r, c], labels[r2, c2]
-                if a < 0 or b < 0 or a == b:
-                    continue
-                for x, y in ((a, b), (b, a)):
-                    touch[x, y] += 1
-                if abs(depth[r, c] - depth[r2, c2]) < max_step:
-                    smooth[a, b] += 1
-                    smooth[b, a] += 1
-                    rise[a, b] += height[r, c] - height[r2, c2]
-                    rise[b, a] -= height[r, c] - height[r2, c2]
+    for a, b, p, q in pixel_pairs(labels):
+        for x, y in ((a, b), (b, a)):
+            touch[x, y] += 1
+        if abs(depth[p] - depth[q]) < max_step:
+            smooth[a, b] += 1
+            smooth[b, a] += 1
+            rise[a, b] += height[p] - height[q]
+            rise[b, a] -= height[p] - height[q]
     return smooth, touch, rise
 
 

@@ -50,7 +50,7 @@ def level_top_waists(
     r = config.level_top_px
     if r <= 0 or not mask.any():
         return out
-    n, lab, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=4)
+    _, lab, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=4)
     for k in np.flatnonzero(stats[:, cv2.CC_STAT_AREA] >= 2 * _MIN_TOP_PX):
         if k == 0:
             continue

@@ -20,6 +20,7 @@ from symjax.perception.support import (
     _by_size,
     _extent,
     _round_footprint,
+    neighbour_pairs,
     part_pixels,
 )
 
@@ -42,18 +43,10 @@ def occluders(labels: np.ndarray, depth: np.ndarray, step: float) -> tuple[np.nd
         than part j by more than ``step``; ``touch`` all pairs of the two parts (symmetric).
     """
     n = int(labels.max(initial=-1)) + 1
-    nearer = np.zeros(n * n, np.int64)
-    touch = np.zeros(n * n, np.int64)
-    for a, b, za, zb in (
-        (labels[:, :-1], labels[:, 1:], depth[:, :-1], depth[:, 1:]),
-        (labels[:-1], labels[1:], depth[:-1], depth[1:]),
-    ):
-        pair = (a != b) & (a >= 0) & (b >= 0)
-        a, b, za, zb = a[pair].astype(np.int64), b[pair].astype(np.int64), za[pair], zb[pair]
-        touch += np.bincount(a * n + b, minlength=n * n)
-        nearer += np.bincount((a * n + b)[za < zb - step], minlength=n * n)
-        nearer += np.bincount((b * n + a)[zb < za - step], minlength=n * n)
-    touch = touch.reshape(n, n)
+    a, b, (za, zb) = neighbour_pairs(labels, depth)
+    touch = np.bincount(a * n + b, minlength=n * n).reshape(n, n)
+    nearer = np.bincount((a * n + b)[za < zb - step], minlength=n * n)
+    nearer += np.bincount((b * n + a)[zb < za - step], minlength=n * n)
     return nearer.reshape(n, n), touch + touch.T
 
 
@@ -105,10 +98,10 @@ def join_occluded_halves(
                 continue
             if not np.any(front[:, a] & front[:, b]):
                 continue
-            both = np.concatenate([flat[idx[a]], flat[idx[b]]])
+            fa, fb = flat[idx[a]], flat[idx[b]]
+            both = np.concatenate([fa, fb])
             if _footprint_width(both) > config.halves_extent:
                 continue
-            fa, fb = flat[idx[a]], flat[idx[b]]
             if (_round_footprint(fa) is not None or _round_footprint(fb) is not None) and (
                 _round_footprint(both) is None
             ):

@@ -29,6 +29,7 @@ from symjax.perception.hull import convex_hull_2d
 
 __all__ = [
     "contacts",
+    "neighbour_pairs",
     "fit_circle",
     "join_supported",
     "part_pixels",
@@ -68,6 +69,30 @@ def _by_size(size: np.ndarray) -> np.ndarray:
     return remap
 
 
+def neighbour_pairs(labels: np.ndarray, *images: np.ndarray) -> tuple:
+    """The 4-neighbour pixel pairs of two different parts.
+
+    Args:
+        labels: (H, W) int parts, -1 none.
+        *images: (H, W) arrays whose values at the two pixels are wanted.
+
+    Returns:
+        ``(a, b, (ia, ib), ...)``: flat arrays over the pairs, ``a`` the left or upper pixel's
+        part and ``b`` the other's (int64), and for each image its values at the two pixels.
+    """
+    rows = []  # per direction: a, b, then each image's values at the two pixels
+    for first, second in (
+        ((slice(None), slice(None, -1)), (slice(None), slice(1, None))),
+        ((slice(None, -1), slice(None)), (slice(1, None), slice(None))),
+    ):
+        a, b = labels[first], labels[second]
+        pair = (a != b) & (a >= 0) & (b >= 0)
+        rows.append([a[pair], b[pair]])
+        rows[-1] += [v for img in images for v in (img[first][pair], img[second][pair])]
+    cols = [np.concatenate(c) for c in zip(*rows, strict=True)]
+    return (*(c.astype(np.int64) for c in cols[:2]), *zip(cols[2::2], cols[3::2], strict=True))
+
+
 def contacts(
     labels: np.ndarray, depth: np.ndarray, max_step: float, height: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -87,19 +112,12 @@ def contacts(
         above).
     """
     n = int(labels.max(initial=-1)) + 1
-    smooth = np.zeros(n * n, np.int64)
-    touch = np.zeros(n * n, np.int64)
-    rise = np.zeros(n * n, np.float64)
-    for a, b, za, zb, ha, hb in (
-        (labels[:, :-1], labels[:, 1:], depth[:, :-1], depth[:, 1:], height[:, :-1], height[:, 1:]),
-        (labels[:-1], labels[1:], depth[:-1], depth[1:], height[:-1], height[1:]),
-    ):
-        pair = (a != b) & (a >= 0) & (b >= 0)
-        ab = a[pair].astype(np.int64) * n + b[pair]
-        on = np.abs(za[pair] - zb[pair]) < max_step
-        touch += np.bincount(ab, minlength=n * n)
-        smooth += np.bincount(ab[on], minlength=n * n)
-        rise += np.bincount(ab[on], (ha[pair] - hb[pair])[on].astype(np.float64), minlength=n * n)
+    a, b, (za, zb), (ha, hb) = neighbour_pairs(labels, depth, height)
+    ab = a * n + b
+    on = np.abs(za - zb) < max_step
+    touch = np.bincount(ab, minlength=n * n)
+    smooth = np.bincount(ab[on], minlength=n * n)
+    rise = np.bincount(ab[on], (ha - hb)[on].astype(np.float64), minlength=n * n)
     smooth, touch, rise = (x.reshape(n, n) for x in (smooth, touch, rise))
     return smooth + smooth.T, touch + touch.T, rise - rise.T
 
