@@ -29,9 +29,9 @@ from symjax.perception.hull import convex_hull_2d
 
 __all__ = [
     "contacts",
-    "neighbour_pairs",
     "fit_circle",
     "join_supported",
+    "neighbour_pairs",
     "part_pixels",
     "relabel_by_size",
     "table_footprint",
