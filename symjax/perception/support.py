@@ -332,12 +332,13 @@ def join_supported(
             if j == k or j not in parts:
                 continue
             foot = parts[j][1]
+            if not around(k, foot):  # a neck joins by no rule a part off its axis
+                continue
             if (
                 narrow
                 and contact[k, j] > 0
                 and (not on_top or rise[k, j] > _RISE * contact[k, j])
                 and not (low <= config.support_height and top(k) > top(j) + _TOWER)
-                and around(k, foot)
             ):
                 gap = float(np.median(np.linalg.norm(foot - own.mean(axis=0), axis=1)))
                 if nearest is None or gap < nearest[1]:
@@ -345,8 +346,6 @@ def join_supported(
             # Floating parts may stand on a lower part; any part may lie within a larger one's
             # footprint (a band of an object's side cut off by a crease across it).
             if parts[j][2] >= low if low > config.support_height else len(foot) <= len(idx):
-                continue
-            if not around(k, foot):  # a neck stands on its own body, not a neighbour
                 continue
             if j not in hulls:
                 hulls[j] = convex_hull_2d(foot[:: max(1, len(foot) // 4000)])
