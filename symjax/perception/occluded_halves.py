@@ -18,10 +18,10 @@ from symjax.perception.config import SegmentationConfig
 from symjax.perception.support import (
     _MIN_TOUCH,
     _by_size,
-    _extent,
     _round_footprint,
     neighbour_pairs,
     part_pixels,
+    principal_extents,
 )
 
 __all__ = ["join_occluded_halves", "occluders"]
@@ -48,14 +48,6 @@ def occluders(labels: np.ndarray, depth: np.ndarray, step: float) -> tuple[np.nd
     nearer = np.bincount((a * n + b)[za < zb - step], minlength=n * n)
     nearer += np.bincount((b * n + a)[zb < za - step], minlength=n * n)
     return nearer.reshape(n, n), touch + touch.T
-
-
-def _footprint_width(foot: np.ndarray) -> float:
-    """Robust width (m) of a footprint (N, 2) along its principal axis."""
-    f = foot[:: max(1, len(foot) // 2000)]
-    f = f - f.mean(axis=0)
-    _, _, vt = np.linalg.svd(f, full_matrices=False)
-    return float(np.max(_extent(f @ vt.T)))
 
 
 def join_occluded_halves(
@@ -100,7 +92,7 @@ def join_occluded_halves(
                 continue
             fa, fb = flat[idx[a]], flat[idx[b]]
             both = np.concatenate([fa, fb])
-            if _footprint_width(both) > config.halves_extent:
+            if principal_extents(both)[0] > config.halves_extent:
                 continue
             if (_round_footprint(fa) is not None or _round_footprint(fb) is not None) and (
                 _round_footprint(both) is None

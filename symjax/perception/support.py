@@ -33,6 +33,7 @@ __all__ = [
     "join_supported",
     "neighbour_pairs",
     "part_pixels",
+    "principal_extents",
     "relabel_by_size",
     "table_footprint",
 ]
@@ -129,15 +130,21 @@ def _extent(x: np.ndarray) -> np.ndarray:
     return hi - lo
 
 
+def principal_extents(foot: np.ndarray) -> tuple[float, float]:
+    """Robust extents (m) of a footprint (N, 2) along its principal axes, major first (of at
+    most about 2000 of its points)."""
+    f = foot[:: max(1, len(foot) // 2000)]
+    f = f - f.mean(axis=0)
+    _, _, vt = np.linalg.svd(f, full_matrices=False)
+    major, minor = _extent(f @ vt.T)
+    return float(major), float(minor)
+
+
 def _is_narrow(foot: np.ndarray, height: np.ndarray, narrow: float) -> bool:
     """Too small to be an object of its own: narrower than ``narrow`` (m) across, or a thin
     piece (under 0.6 of that thick) at most twice that long and high (a mug's handle)."""
-    step = max(1, len(foot) // 2000)
-    f = foot[::step] - foot[::step].mean(axis=0)
-    _, _, vt = np.linalg.svd(f, full_matrices=False)
-    a = f @ vt.T
-    major, minor = _extent(a)
-    tall = float(_extent(height[::step]))
+    major, minor = principal_extents(foot)
+    tall = float(_extent(height[:: max(1, len(foot) // 2000)]))
     return bool(major < narrow or (minor < 0.6 * narrow and max(major, tall) < 2 * narrow))
 
 
