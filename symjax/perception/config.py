@@ -96,8 +96,9 @@ class SegmentationConfig:
             the pieces of two objects behind one occluder stand farther apart.
         level_top_px: Pixels; 0 = off. With creases, a part whose top region (the pixels within
             5 mm of its top) erosion by a disc of this radius parts into two tops is cut where
-            they meet, when both pieces stand on the table: two touching objects of one height
-            meet level there (:mod:`symjax.perception.level_tops`).
+            they meet, when both pieces stand on the table or the cut is at most three radii
+            long: two touching objects of one height meet level there, the farther one perhaps
+            hidden below its top (:mod:`symjax.perception.level_tops`).
         split_bridges_px: A cluster that erosion by a disc of this radius (pixels) breaks into
             two or more cores of ``min_cluster_points`` seed pixels is split there: two touching
             objects joined through a few pixels where the crease and the depth step both missed
