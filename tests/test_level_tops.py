@@ -148,3 +148,30 @@ def test_two_cans_of_one_height_come_apart():
         result = segment(scene.depth, scene.camera, cfg)
         ious, _ = match_ious(scene.truth, result)
         assert (len(result) == len(kinds) and ious[4] >= 0.85) == want, (len(result), ious)
+
+
+def test_a_wider_waist_parts_with_a_larger_disc(monkeypatch):
+    import symjax.perception.level_tops as level_tops
+
+    # Lids 45 px apart meet in a waist 22 px tall: a 6-px disc does not part them, a 12-px does.
+    mask, height, centres = _two_lids(apart=45.0)
+    a, b = _pieces(mask, level_top_waists(mask, height, CFG), centres)
+    assert a != b and a > 0 and b > 0
+    monkeypatch.setattr(level_tops, "_RADII", (1.0,))
+    assert not level_top_waists(mask, height, CFG).any()
+
+
+def test_a_lid_against_a_box_top_comes_apart(monkeypatch):
+    # Clutter scene 217 of the 270 examined: a can's lid against a box top 1.6 mm lower.
+    import symjax.perception.level_tops as level_tops
+    from symjax.perception import segment
+    from symjax.perception.clutter_benchmark import match_ious
+    from symjax.perception.synthetic import clutter_scene
+
+    kinds = ("box", "box", "box", "can", "box", "can", "box", "can")
+    sc = clutter_scene(kinds, seed=461)
+    for radii, want in (((1.0, 1.5, 2.0), True), ((1.0,), False)):
+        monkeypatch.setattr(level_tops, "_RADII", radii)
+        result = segment(sc.depth, sc.camera, CFG)
+        ious, _ = match_ious(sc.truth, result)
+        assert (len(result) == len(kinds) and ious[5] >= 0.85) == want, (radii, len(result), ious)
