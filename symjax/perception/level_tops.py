@@ -43,12 +43,17 @@ def _disk(r: int) -> np.ndarray:
 
 
 def _cores(top: np.ndarray, radii) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """The cores that erosion of ``top`` by the first disc of ``radii`` (pixels) to leave two
-    of at least :data:`_MIN_TOP_PX` pixels leaves: ``(top, labels, the two or more cores'
-    labels, the radius)``, or fewer than two cores. At each radius the top with its enclosed
-    specks of noise filled is tried when the top as measured leaves fewer: a lid whose heights
-    scatter across the band erodes into crumbs (filled first, a speck in the waist between two
-    tops would join them).
+    """Erodes ``top`` (H, W) bool by discs of ``radii`` (pixels) in turn until two or more
+    cores of at least :data:`_MIN_TOP_PX` pixels are left.
+
+    At each radius the top as measured is eroded first, then, if that leaves fewer than two
+    cores, the top with its specks of noise filled: a lid whose heights scatter across the band
+    erodes into crumbs (filled first, a speck in the waist between two tops would join them).
+
+    Returns:
+        ``(top, labels, cores, r)``: the top that was parted (filled or not), the eroded top's
+        component labels (H, W), the labels of its cores (fewer than two: none parted it), and
+        the radius that parted it.
     """
     import cv2
 
