@@ -162,7 +162,7 @@ class Args(PresetArgs):
     scenes with every object found by 10 points)."""
     held_out_scenes: int = 0
     """Clutter scenes drawn after the 270 the segmentation's rules were made on, scored too
-    (``clutter_accuracy_clutter_held_out``; 180 take about four minutes more); 0 = none."""
+    (``clutter_accuracy_clutter_held_out``; 180 take a few minutes more); 0 = none."""
 
 
 def main(argv=None) -> int:
