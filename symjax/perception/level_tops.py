@@ -119,9 +119,21 @@ def level_top_waists(
             continue
         # The smallest disc that parts the top: two lids meet in a waist 8-15 px wide, a lid
         # against a box top or two lids nearer the camera in a wider one.
-        top, cores, big, r = _cores(top, [round(config.level_top_px * f) for f in _RADII])
+        # Eroded within the top's own box (a pixel wider: the speck count sees the same
+        # neighbours), a fraction of the part's box where walls stand below the top.
+        rows, cols = np.flatnonzero(top.any(axis=1)), np.flatnonzero(top.any(axis=0))
+        box = (
+            slice(max(rows[0] - 1, 0), rows[-1] + 2),
+            slice(max(cols[0] - 1, 0), cols[-1] + 2),
+        )
+        radii = [round(config.level_top_px * f) for f in _RADII]
+        parted, cores_box, big, r = _cores(top[box], radii)
         if len(big) < 2:
             continue
+        top = np.zeros_like(top)
+        top[box] = parted
+        cores = np.zeros(top.shape, np.int32)
+        cores[box] = cores_box
         dist = [cv2.distanceTransform((cores != c).astype(np.uint8), cv2.DIST_L2, 3) for c in big]
         nearest = np.where(top, np.argmin(np.stack(dist), axis=0), -1)
         edge = np.zeros_like(top)
