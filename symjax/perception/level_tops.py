@@ -116,6 +116,9 @@ def level_top_waists(
     out = np.zeros(mask.shape, bool)
     if config.level_top_px <= 0 or not mask.any():
         return out
+    # The smallest disc that parts the top: two lids meet in a waist 8-15 px wide, a lid
+    # against a box top or two lids nearer the camera in a wider one.
+    radii = [round(config.level_top_px * f) for f in _RADII]
     _, lab, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=4)
     for k in np.flatnonzero(stats[:, cv2.CC_STAT_AREA] >= 2 * _MIN_TOP_PX):
         if k == 0:
@@ -126,8 +129,6 @@ def level_top_waists(
         top = part & (hgt > np.percentile(hgt[part], 98) - _TOP_BAND)
         if top.sum() < 2 * _MIN_TOP_PX:
             continue
-        # The smallest disc that parts the top: two lids meet in a waist 8-15 px wide, a lid
-        # against a box top or two lids nearer the camera in a wider one.
         # Eroded within the top's own box (a pixel wider: the speck count sees the same
         # neighbours), a fraction of the part's box where walls stand below the top.
         rows, cols = np.flatnonzero(top.any(axis=1)), np.flatnonzero(top.any(axis=0))
@@ -135,7 +136,6 @@ def level_top_waists(
             slice(max(rows[0] - 1, 0), rows[-1] + 2),
             slice(max(cols[0] - 1, 0), cols[-1] + 2),
         )
-        radii = [round(config.level_top_px * f) for f in _RADII]
         parted, cores_box, big, r = _cores(top[box], radii)
         if len(big) < 2:
             continue
