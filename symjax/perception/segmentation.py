@@ -160,10 +160,10 @@ def _segment_depth(
             lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa)
             if kappa is not None and lab.max() > 0:
                 foot = table_footprint(lab, rays[sl], conn[sl], T, n)
+                lab = join_occluded_halves(lab, foot, height[sl], conn[sl], cfg)
                 lab, smooth = join_supported(
                     lab, foot, height[sl], cfg, depth=conn[sl], with_contacts=True
                 )
-                lab, smooth = join_occluded_halves(lab, foot, height[sl], conn[sl], smooth, cfg)
                 if cfg.round_margin > 0:  # (joins relabel parts, not pixels: foot holds)
                     lab = settle_round_parts(lab, foot, height[sl], conn[sl], cfg, smooth)
             lab[~valid[sl]] = -1
