@@ -64,6 +64,32 @@ def test_the_halves_behind_a_neck_join():
     assert joined[0, 0] == joined[0, 14] == 0 and (joined[labels == 1] == 1).all()
 
 
+def _over_the_neck(step=0.0):
+    """The halves meet in the top row above a neck that ends a pixel lower (one pixel pair),
+    the right one ``step`` m nearer there."""
+    labels, foot, height, depth = _behind_a_neck()
+    labels[0, 6:8], labels[0, 8] = 0, 2
+    depth[0, 6:9] = 0.8
+    depth[0, 8] -= step
+    height[0, 6:9] = 0.10
+    foot[0, 6:8, 0], foot[0, 8, 0] = -0.035, 0.035
+    return labels, foot, height, depth
+
+
+@pytest.mark.parametrize(
+    ("step", "meet", "joins"),
+    [(0.0, 20, True), (0.05, 20, False), (0.0, 0, False)],
+    ids=["no-step", "across-a-step", "no-meeting-allowed"],
+)
+def test_halves_that_meet_above_a_lower_neck(step, meet, joins, monkeypatch):
+    import symjax.perception.occluded_halves as halves
+
+    monkeypatch.setattr(halves, "_MEET", meet)
+    labels, foot, height, depth = _over_the_neck(step)
+    joined = join_occluded_halves(labels, foot, height, depth, CFG)
+    assert (joined[0, 0] == joined[0, 14]) == joins
+
+
 @pytest.mark.parametrize(
     "case",
     [
@@ -101,13 +127,21 @@ def _whole(kinds, seed, k, cfg) -> bool:
         # joined to one strip first, that part's top would be the shoulder's and the other strip
         # would stay apart.
         (("bottle", "can", "bottle", "can", "box", "can"), 487, 0),
+        # Scene 110: box 5 shows its face either side of bottle 3's neck, and meets itself
+        # above it along 6 pixel pairs.
+        (("bottle", "box", "can", "bottle", "box", "box"), 221, 5),
     ],
-    ids=["scene-18-box", "scene-231-bottle"],
+    ids=["scene-18-box", "scene-231-bottle", "scene-110-box"],
 )
-def test_an_object_behind_a_neck_is_one_object(scene):
+def test_an_object_behind_a_neck_is_one_object(scene, monkeypatch):
+    import symjax.perception.occluded_halves as halves
+
     kinds, seed, k = scene
     assert _whole(kinds, seed, k, CFG)
     assert not _whole(kinds, seed, k, dataclasses.replace(CFG, halves_extent=0.0))
+    if seed == 221:
+        monkeypatch.setattr(halves, "_MEET", 0)
+        assert not _whole(kinds, seed, k, CFG)
 
 
 def test_the_strips_of_two_bottles_either_side_of_one_stay_apart(monkeypatch):
