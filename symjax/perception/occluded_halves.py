@@ -20,14 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 from symjax.perception.config import SegmentationConfig
-from symjax.perception.support import (
-    _MIN_TOUCH,
-    _by_size,
-    _round_footprint,
-    neighbour_pairs,
-    part_pixels,
-    principal_extents,
-)
+from symjax.perception.footprint import principal_extents, round_footprint
+from symjax.perception.support import _MIN_TOUCH, _by_size, neighbour_pairs, part_pixels
 
 __all__ = ["join_occluded_halves", "occluders"]
 
@@ -77,7 +71,7 @@ def join_occluded_halves(
     Args:
         labels: (H, W) int32 parts, -1 none.
         foot: (H, W, 2) the pixels' points in a basis of the table plane, metres, where
-            ``labels >= 0`` (:func:`symjax.perception.support.table_footprint`).
+            ``labels >= 0`` (:func:`symjax.perception.footprint.table_footprint`).
         height: (H, W) height above the table, metres.
         depth: (H, W) metres.
         config: ``halves_extent`` (the widest two halves may be together, m; 0 = off) and
@@ -110,9 +104,9 @@ def join_occluded_halves(
             both = np.concatenate([fa, fb])
             if principal_extents(both)[0] > config.halves_extent:
                 continue
-            arcs = [c for c in (_round_footprint(fa), _round_footprint(fb)) if c is not None]
+            arcs = [c for c in (round_footprint(fa), round_footprint(fb)) if c is not None]
             if arcs:
-                one = _round_footprint(both)
+                one = round_footprint(both)
                 if one is None or one[1] > _ONE_ARC * min(r for _, r in arcs):
                     continue
             owner[owner == owner[b]] = owner[a]

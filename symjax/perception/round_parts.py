@@ -14,17 +14,14 @@ from __future__ import annotations
 import numpy as np
 
 from symjax.perception.config import SegmentationConfig
-from symjax.perception.hull import convex_hull_2d
-from symjax.perception.support import (
+from symjax.perception.footprint import (
     _MAX_ARC_RADIUS,
-    _MIN_TOUCH,
-    _by_size,
-    _extent,
-    _hull_distance,
-    contacts,
     fit_circle,
-    part_pixels,
+    hull_distance,
+    robust_extent,
 )
+from symjax.perception.hull import convex_hull_2d
+from symjax.perception.support import _MIN_TOUCH, _by_size, contacts, part_pixels
 
 __all__ = ["settle_round_parts", "wall_circle"]
 
@@ -76,7 +73,9 @@ def wall_circle(
     # The points on a wall's circle span at most its diameter: a circle a few millimetres wide
     # through a cluster of them (fitted to a can 6 cm wide) is no wall's.
     on = wall[off <= max(margin, 2.0 * float(np.median(off)))]
-    return circle if len(on) >= 10 and circle[1] >= _SPAN * float(np.max(_extent(on))) else None
+    return (
+        circle if len(on) >= 10 and circle[1] >= _SPAN * float(np.max(robust_extent(on))) else None
+    )
 
 
 def _distance(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -97,7 +96,7 @@ def settle_round_parts(
 
     Args:
         labels: (H, W) int32 parts, -1 none.
-        foot: (H, W, 2) the pixels' points on the table (:func:`support.table_footprint`, used
+        foot: (H, W, 2) the pixels' points on the table (:func:`footprint.table_footprint`, used
             where ``labels >= 0``), metres.
         height: (H, W) height above the table, metres.
         depth: (H, W) depth, metres (which parts meet on one surface).
@@ -155,7 +154,7 @@ def settle_round_parts(
             else:
                 if b not in hulls:
                     hulls[b] = convex_hull_2d(feet[b][:: max(1, len(feet[b]) // 4000)])
-                g = -_hull_distance(hulls[b], f)
+                g = -hull_distance(hulls[b], f)
             take = (g <= margin) & (g < gap)
             best[take], gap[take] = b, g[take]
         owner[a][far[best >= 0]] = best[best >= 0]

@@ -35,6 +35,7 @@ from symjax.perception.depth_pixels import (
     table_hull,
 )
 from symjax.perception.dropouts import claim_dropouts
+from symjax.perception.footprint import table_footprint
 from symjax.perception.object_info import (
     EMPTY_TABLE,
     ObjectInfo,
@@ -45,7 +46,7 @@ from symjax.perception.object_info import (
 from symjax.perception.occluded_halves import join_occluded_halves
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
 from symjax.perception.round_parts import settle_round_parts
-from symjax.perception.support import join_supported, table_footprint
+from symjax.perception.support import join_supported
 from symjax.perception.table_frame import in_table_frame
 from symjax.table import TablePlane
 
