@@ -35,7 +35,7 @@ _ONE_ARC = 2.0
 #: Pixel pairs: two halves may meet along this many at most, without a depth step, where the
 #: nearer part leaves a gap (a neck lower than the object behind it) that a crease cut across.
 #: Logged on the 270 examined scenes: 4-15 for halves of one object, none across a step; the
-#: pieces of two objects that pass the other tests met across a step (10-37 pairs).
+#: pieces of two objects that pass the other tests met across a step (10-60 pairs).
 _MEET = 20
 
 

@@ -62,7 +62,7 @@ _AXIS_REACH = 0.06
 # and the strip of its body seen beside the object in front, whose noisy occluding edge leaves
 # few pixel pairs without a depth step between them. Logged on the 270 examined scenes, such
 # pairs of one object lay within 2.3 cm of the hull (90th percentile of the lower part's
-# footprint; 507 pairs, 3 more with a lower part mixed of two objects) and those of two objects
+# footprint; 507 pairs, 6 more with a lower part mixed of two objects) and those of two objects
 # 4.3 cm or more away (307 pairs).
 _BELOW = (0.03, 0.01)
 _UNDER = 0.03
