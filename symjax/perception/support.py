@@ -238,6 +238,11 @@ def join_supported(
             discs[k] = _disc(parts[k][1])
         return discs[k]
 
+    def hull(k: int) -> np.ndarray:
+        if k not in hulls:
+            hulls[k] = convex_hull_2d(parts[k][1][:: max(1, len(parts[k][1]) // 4000)])
+        return hulls[k]
+
     def around(k: int, foot: np.ndarray) -> bool:
         # The footprint (N, 2) lies around the axis of part k, if k is round (a neck).
         if disc(k) is None:
@@ -246,14 +251,12 @@ def join_supported(
         reach = float(np.percentile(np.linalg.norm(f - disc(k)[0], axis=1), 90))
         return reach <= _AXIS_REACH + disc(k)[1]
 
-    def under(k: int, j: int, low: float) -> bool:
-        # Part j ends where part k (lowest at ``low``) begins and stands under its footprint.
-        if not -_BELOW[0] <= top(j) - low <= _BELOW[1]:
+    def under(k: int, j: int) -> bool:
+        # Part j ends where part k begins and stands under k's footprint.
+        if not -_BELOW[0] <= top(j) - parts[k][2] <= _BELOW[1]:
             return False
-        if k not in hulls:
-            hulls[k] = convex_hull_2d(parts[k][1][:: max(1, len(parts[k][1]) // 4000)])
         f = parts[j][1][:: max(1, len(parts[j][1]) // 500)]
-        return bool(np.mean(hull_distance(hulls[k], f) >= -_UNDER) >= 0.9)
+        return bool(np.mean(hull_distance(hull(k), f) >= -_UNDER) >= 0.9)
 
     # Highest parts first, so that a chain (cap on neck on body) collapses downwards.
     for k in sorted(parts, key=lambda k: -parts[k][2]):
@@ -277,7 +280,7 @@ def join_supported(
             foot = parts[j][1]
             if not around(k, foot):  # a neck joins by no rule a part off its axis
                 continue
-            if below is None and low > config.support_height and under(k, j, low):
+            if below is None and low > config.support_height and under(k, j):
                 below = j
             if (
                 narrow
@@ -292,9 +295,7 @@ def join_supported(
             # footprint (a band of an object's side cut off by a crease across it).
             if parts[j][2] >= low if low > config.support_height else len(foot) <= len(idx):
                 continue
-            if j not in hulls:
-                hulls[j] = convex_hull_2d(foot[:: max(1, len(foot) // 4000)])
-            if np.mean(hull_distance(hulls[j], own) >= -_FOOTPRINT_SLACK) >= _ON_SUPPORT:
+            if np.mean(hull_distance(hull(j), own) >= -_FOOTPRINT_SLACK) >= _ON_SUPPORT:
                 best = j
                 break
             # A round part's footprint is an arc: what lies within its circle is inside it (the
