@@ -136,26 +136,25 @@ def level_top_waists(
             slice(max(rows[0] - 1, 0), rows[-1] + 2),
             slice(max(cols[0] - 1, 0), cols[-1] + 2),
         )
-        parted, cores_box, big, r = _cores(top[box], radii)
+        parted, cores, big, r = _cores(top[box], radii)
         if len(big) < 2:
             continue
-        top = np.zeros_like(top)
-        top[box] = parted
-        cores = np.zeros(top.shape, np.int32)
-        cores[box] = cores_box
+        # Each top pixel's nearest core, within the box too: the cores and the parted top lie
+        # in it, and a chamfer distance between two of its pixels never leaves it.
         dist = [cv2.distanceTransform((cores != c).astype(np.uint8), cv2.DIST_L2, 3) for c in big]
-        nearest = np.where(top, np.argmin(np.stack(dist), axis=0), -1)
-        edge = np.zeros_like(top)
+        nearest = np.where(parted, np.argmin(np.stack(dist), axis=0), -1)
+        edge = np.zeros_like(part)
+        inner = edge[box]  # (a view: the cut is marked in the part's box)
         for a, b, e in (
-            (nearest[:, 1:], nearest[:, :-1], edge[:, 1:]),
-            (nearest[1:], nearest[:-1], edge[1:]),
+            (nearest[:, 1:], nearest[:, :-1], inner[:, 1:]),
+            (nearest[1:], nearest[:-1], inner[1:]),
         ):
             e |= (a != b) & (a >= 0) & (b >= 0)
         cut = part & (cv2.dilate(edge.astype(np.uint8), _disk(_CUT_PX)) > 0)
         # Each piece the cut leaves around a core must stand on the table, unless they meet in
         # a waist (the one behind may be hidden below its top).
         _, pieces = cv2.connectedComponents((part & ~cut).astype(np.uint8), connectivity=4)
-        owners = {int(np.bincount(pieces[cores == c]).argmax()) for c in big} - {0}
+        owners = {int(np.bincount(pieces[box][cores == c]).argmax()) for c in big} - {0}
         if len(owners) < 2:
             continue
         waist = edge.sum() <= _WAIST_RADII * r
