@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from symjax import configs
 from symjax.perception import segment
 from symjax.perception.clutter_benchmark import match_ious
-from symjax.perception.round_parts import settle_round_parts, wall_circle
+from symjax.perception.round_parts import settle_round_parts, wall_circles
 from symjax.perception.synthetic import clutter_scene
 
 CFG = configs.load("clutter").segmentation
@@ -35,10 +35,27 @@ def test_wall_circle_of_a_bottle_is_its_body(seed, r, start):
     rng = np.random.default_rng(seed)
     centre = rng.uniform(-0.3, 0.3, 2)
     foot, height = _bottle(rng, centre, r, start)
-    circle = wall_circle(foot, height, CFG.round_residual, CFG.round_margin)
-    assert circle is not None
-    np.testing.assert_allclose(circle[0], centre, atol=1.5e-3)
-    assert abs(circle[1] - r) < 1.5e-3
+    fits = wall_circles(foot, height, CFG.round_residual, CFG.round_margin)
+    assert fits is not None
+    for circle in fits:  # the algebraic and the geometric fit
+        np.testing.assert_allclose(circle[0], centre, atol=1.5e-3)
+        assert abs(circle[1] - r) < 1.5e-3
+
+
+def test_on_short_arcs_the_algebraic_circle_errs_small_the_geometric_less():
+    # A can 7 cm wide seen along 120 degrees of its wall with 1 mm of noise: Kasa's fit is
+    # biased small by about 0.8 mm (which keeps moves into its disc safe); the geometric one
+    # is within a few hundredths of a millimetre.
+    r, errors = 0.035, []
+    for seed in range(40):
+        rng = np.random.default_rng(seed)
+        t = rng.uniform(0, 2 * np.pi / 3, 600)
+        foot = r * np.stack([np.cos(t), np.sin(t)], 1) + rng.normal(0, 1e-3, (600, 2))
+        fits = wall_circles(foot, rng.uniform(0.0, 0.1, 600), CFG.round_residual, 0.004)
+        assert fits is not None
+        errors.append([fits[0][1] - r, fits[1][1] - r])
+    algebraic, geometric = np.median(errors, axis=0)
+    assert algebraic < -5e-4 and abs(geometric) < 0.1 * abs(algebraic)
 
 
 @settings(max_examples=25, deadline=None)
@@ -52,7 +69,7 @@ def test_a_box_wall_is_not_round(seed, a, b):
     rot = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
     foot = np.stack([u, v], 1) @ rot.T + rng.normal(0, 3e-4, (len(u), 2))
     height = rng.uniform(0.0, 0.12, len(u))
-    assert wall_circle(foot, height, CFG.round_residual, CFG.round_margin) is None
+    assert wall_circles(foot, height, CFG.round_residual, CFG.round_margin) is None
 
 
 def _two_parts():
@@ -137,7 +154,35 @@ def test_a_few_millimetres_wide_circle_is_no_wall(monkeypatch):
     foot = np.concatenate([ring, r[:, None] * np.stack([np.cos(a), np.sin(a)], 1)])
     height = rng.uniform(0.0, 0.1, len(foot))
     monkeypatch.setattr(rp, "_SPAN", 0.0)
-    small = wall_circle(foot, height, CFG.round_residual, CFG.round_margin)
-    assert small is not None and small[1] < 0.005  # what the fit gives
+    small = wall_circles(foot, height, CFG.round_residual, CFG.round_margin)
+    assert small is not None and small[0][1] < 0.005  # what the fit gives
     monkeypatch.undo()
-    assert wall_circle(foot, height, CFG.round_residual, CFG.round_margin) is None
+    assert wall_circles(foot, height, CFG.round_residual, CFG.round_margin) is None
+
+
+def _all_whole(kinds, seed) -> bool:
+    sc = clutter_scene(kinds, seed=seed)
+    result = segment(sc.depth, sc.camera, CFG)
+    ious, _ = match_ious(sc.truth, result)
+    return len(result) == len(kinds) and ious.min() >= 0.85
+
+
+@pytest.mark.parametrize(("kinds", "seed", "off"), [
+    (("bottle", "can", "can", "box", "can"), 567, ("geometric",)),
+    (("box", "can", "can", "box", "box", "box", "can"), 455, ("geometric", "beyond")),
+    (("box", "box", "bottle", "box", "box", "box"), 360, ("beyond",)),
+], ids=["scene-269", "scene-214", "scene-170"])  # fmt: skip
+def test_a_round_part_gives_away_only_what_stands_beyond_its_wall(kinds, seed, off, monkeypatch):
+    # Clutter scenes 269 and 214: a can (3.5 and 3.0 cm) touches another whose wall is too
+    # short for a circle. Its algebraic circle is 5.0 and 5.6 mm too small, so its own edge
+    # stood beyond it, within the other can's footprint, and went to it (IoU 0.81 and 0.82).
+    # Scene 170: a box part passed for round with 31 % of its pixels beyond the circle, which
+    # went to three neighbours (1,200 pixels, none theirs). 214 is mended by either change.
+    import symjax.perception.round_parts as rp
+
+    assert _all_whole(kinds, seed)
+    if "geometric" in off:
+        monkeypatch.setattr(rp, "_geometric_circle", lambda points, start: start)
+    if "beyond" in off:
+        monkeypatch.setattr(rp, "_BEYOND", 1.0)
+    assert not _all_whole(kinds, seed)
