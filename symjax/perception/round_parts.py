@@ -101,10 +101,10 @@ def _geometric_circle(points: np.ndarray, start: Circle) -> Circle:
     from scipy.optimize import least_squares
 
     def off(p):
-        return np.hypot(points[:, 0] - p[0], points[:, 1] - p[1]) - p[2]
+        return _distance(points, p[:2]) - p[2]
 
     def jac(p):
-        d = np.maximum(np.hypot(points[:, 0] - p[0], points[:, 1] - p[1]), 1e-12)
+        d = np.maximum(_distance(points, p[:2]), 1e-12)
         return np.column_stack([(p[0] - points[:, 0]) / d, (p[1] - points[:, 1]) / d,
                                 -np.ones(len(points))])  # fmt: skip
 
