@@ -107,3 +107,34 @@ def test_claims_do_not_depend_on_the_world_frame(axis, angle):
     T[:3, :3] = Q
     got = claim_dropouts(labels, valid, rays, T, {0: points @ Q.T}, Q @ normal, offset, 8)
     np.testing.assert_array_equal(got, ref)
+
+
+def test_column_top_is_the_top_surface_not_its_highest_point(monkeypatch):
+    # A box 8 cm high: its top face at 0.08 m with 1 mm of noise, its front face below, and
+    # three points of the top edge measured 6 mm too high. The column ends at the face.
+    import symjax.perception.dropouts as dropouts
+
+    rng = np.random.default_rng(0)
+    top = np.column_stack([rng.uniform(0, 0.1, (400, 2)), 0.08 + rng.normal(0, 1e-3, 400)])
+    front = np.column_stack([rng.uniform(0, 0.1, 300), np.zeros(300), rng.uniform(0, 0.08, 300)])
+    spikes = np.array([[0.02, 0.1, 0.086], [0.05, 0.1, 0.0865], [0.08, 0.1, 0.086]])
+    points = np.concatenate([top, front, spikes])
+    basis, offset = np.eye(3), 0.0  # the table basis is the world frame here
+    hull, height = dropouts._column(points, basis, offset)
+    assert abs(height - 0.08) < 5e-4 and len(hull) >= 4
+    monkeypatch.setattr(dropouts, "_TOP_BAND", 0.0)  # the highest point, as before
+    assert dropouts._column(points, basis, offset)[1] == 0.0865
+
+
+def test_a_box_column_of_its_top_surface_claims_less_of_the_table_behind(monkeypatch):
+    # Clutter scene 164 of the 270 examined: box 2's column ended at its highest point, a few
+    # millimetres above its top, and took pixels without depth beyond its far edge (IoU 0.944);
+    # ending at the top surface, 0.967, and no object of the scene worse.
+    import symjax.perception.dropouts as dropouts
+
+    sc = clutter_scene(("box", "bottle", "box", "can", "can"), seed=344)
+    cfg = configs.load("clutter").segmentation
+    now, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    monkeypatch.setattr(dropouts, "_TOP_BAND", 0.0)
+    before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    assert now[2] >= before[2] + 0.015 and np.all(now >= before - 0.002)

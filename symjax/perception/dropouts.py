@@ -5,8 +5,13 @@ head), and little along outlines. Those pixels are part of the object's silhouet
 its mask, the symmetry search would take mirrored points that land there for visible empty space
 (Eq. 3). A pixel without depth is claimed by an object when its viewing ray passes through the
 object's column, the convex hull of its points' footprint on the table extruded from the table
-to their highest point, and it is near the object in the image; of several columns the nearest
-one along the ray claims it. Objects keep only their measured pixels as points.
+to its top, and it is near the object in the image; of several columns the nearest one along the
+ray claims it. Objects keep only their measured pixels as points.
+
+The top is the height of the object's top surface, not of its highest point: the median height
+of the points within :data:`_TOP_BAND` of the highest. The stereo noise puts the highest of a few
+hundred points along a top edge some millimetres above it, and a column that much too tall takes
+the pixels just beyond the edge, where the other camera could not see the table behind.
 """
 
 from __future__ import annotations
@@ -19,13 +24,23 @@ from symjax.perception.hull import convex_hull_2d
 
 __all__ = ["claim_dropouts"]
 
+#: Metres: the column's top is the median height of the points within this of the highest.
+#: Against the highest point, on the first 90 examined clutter scenes: the background pixels
+#: without depth that boxes claimed 9,677 -> 6,140 and cans 5,700 -> 3,202, while their own that
+#: they missed went 4,542 -> 4,757 and 6,126 -> 6,880 (bottles unchanged: their column is the
+#: body's up to the neck's top); on all 270, mean object IoU 0.9561 -> 0.9590, and 5, 10 and
+#: 20 mm gave the same to 0.0003.
+_TOP_BAND = 0.01
+
 
 def _column(points: np.ndarray, basis: np.ndarray, offset: float):
-    """The footprint hull (V, 2) of the points in the table basis (counter-clockwise) and their
-    top height, metres. (A stack of hulls per height band follows a bottle's neck but loses the
-    tops without depth: 4 bands scored a lower mean IoU on the clutter scenes, 0.950 vs 0.957.)"""
+    """The footprint hull (V, 2) of the points in the table basis (counter-clockwise) and the
+    height of their top surface (module docstring), metres. (A stack of hulls per height band
+    follows a bottle's neck but loses the tops without depth: 4 bands scored a lower mean IoU on
+    the clutter scenes, 0.950 vs 0.957.)"""
     uvh = points @ basis.T + np.array([0.0, 0.0, offset])
-    return convex_hull_2d(uvh[:, :2]), float(uvh[:, 2].max())
+    h = uvh[:, 2]
+    return convex_hull_2d(uvh[:, :2]), float(np.median(h[h >= h.max() - _TOP_BAND]))
 
 
 def _entry(
