@@ -154,8 +154,9 @@ def test_a_bottle_column_narrows_to_its_neck():
 
 def test_a_box_column_of_its_top_surface_claims_less_of_the_table_behind(monkeypatch):
     # Clutter scene 164 of the 270 examined: box 2's column ended at its highest point, a few
-    # millimetres above its top, and took pixels without depth beyond its far edge (IoU 0.944);
-    # ending at the top surface, 0.967, and no object of the scene worse.
+    # millimetres above its top, and took pixels without depth beyond its far edge (IoU 0.942,
+    # with the columns half a pixel wider); ending at the top surface, 0.957, and no object of
+    # the scene worse.
     import symjax.perception.dropouts as dropouts
 
     sc = clutter_scene(("box", "bottle", "box", "can", "can"), seed=344)
@@ -163,12 +164,12 @@ def test_a_box_column_of_its_top_surface_claims_less_of_the_table_behind(monkeyp
     now, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
     monkeypatch.setattr(dropouts, "_TOP_BAND", 0.0)
     before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
-    assert now[2] >= before[2] + 0.015 and np.all(now >= before - 0.002)
+    assert now[2] >= before[2] + 0.01 and np.all(now >= before - 0.002)
 
 
 def test_a_bottle_column_of_its_neck_claims_less_of_the_table_beside_it(monkeypatch):
     # Clutter scene 205 of the 270 examined: bottle 0's column was its body's footprint up to
-    # its neck's top (IoU 0.909); narrowed to the neck above 0.85 of its top, 0.967.
+    # its neck's top (IoU 0.911); narrowed to the neck above 0.85 of its top, 0.975.
     import symjax.perception.dropouts as dropouts
 
     sc = clutter_scene(("bottle", "bottle", "box", "bottle", "can"), seed=432)
@@ -177,3 +178,30 @@ def test_a_bottle_column_of_its_neck_claims_less_of_the_table_beside_it(monkeypa
     monkeypatch.setattr(dropouts, "_NECK_AREA", 0.0)  # never a neck: one prism
     before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
     assert now[0] >= before[0] + 0.04 and np.all(now >= before - 0.002)
+
+
+def test_pixel_angle_and_a_column_grown_outwards():
+    import symjax.perception.dropouts as dropouts
+
+    _, rays, _, _, _ = _box_view()  # f = 100 px
+    assert abs(dropouts._pixel_angle(rays) - 0.01) < 1e-4
+    # A ray down past the SQUARE's edge x = 0.1, 0.3 mm outside it: missed by the column, met
+    # by the column grown 0.5 mm.
+    o = np.array([0.1003, 0.05, 0.3])
+    d = np.array([[0.0, 0.0, -1.0]])
+    assert np.isinf(dropouts._entry(SQUARE, 0.08, o, d)[0])
+    assert abs(dropouts._entry(SQUARE, 0.08, o, d, grow=5e-4)[0] - 0.22) < 1e-9
+
+
+def test_columns_half_a_pixel_wider_take_their_objects_last_pixels(monkeypatch):
+    # Clutter scene 174 of the 270 examined: the hull of bottle 1's measured points lies inside
+    # its outline, whose last pixels have no depth (IoU 0.848); grown by half a pixel, 0.858, and
+    # the scene's mean IoU up.
+    import symjax.perception.dropouts as dropouts
+
+    sc = clutter_scene(("bottle", "bottle", "can", "can", "box"), seed=374)
+    cfg = configs.load("clutter").segmentation
+    now, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    monkeypatch.setattr(dropouts, "_GROW_PX", 0.0)
+    before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    assert before[1] < 0.85 <= now.min() and now.mean() > before.mean() + 0.003

@@ -14,7 +14,9 @@ hundred points along a top edge some millimetres above it, and a column that muc
 the pixels just beyond the edge, where the other camera could not see the table behind. Where
 the object narrows near its top (a bottle's neck), its column is two prisms: the whole footprint's
 up to :data:`_NECK_FROM` of the top, and the upper points' footprint up to the top, so that the
-table seen beside the neck is not claimed.
+table seen beside the neck is not claimed. The hull of the measured points lies inside the
+object's outline, whose last pixels are the ones without depth: each column's sides stand half a
+pixel's footprint (at the object's distance) outside the hull (:data:`_GROW_PX`).
 """
 
 from __future__ import annotations
@@ -43,6 +45,11 @@ _TOP_BAND = 0.01
 #: held-out one; an area share of 0.35 or 0.7 gave the same results as 0.5.
 _NECK_FROM = 0.85
 _NECK_AREA = 0.5
+#: Pixels: a column's sides stand this many pixels' footprint outside its points' hull. On the 270
+#: examined clutter scenes, mean object IoU against 0: 0.9609 -> 0.9640 (a third of a pixel 0.9641,
+#: two thirds 0.9633; a fixed 0.25, 0.5, 0.75 or 1 mm gave 0.9635, 0.9643, 0.9638 and 0.9625, but
+#: a pixel's footprint scales with the distance and the focal length).
+_GROW_PX = 0.5
 
 
 def _column(points: np.ndarray, basis: np.ndarray, offset: float) -> list:
@@ -66,13 +73,27 @@ def _column(points: np.ndarray, basis: np.ndarray, offset: float) -> list:
     return [(hull, _NECK_FROM * top), (neck, top)]
 
 
+def _pixel_angle(rays: np.ndarray) -> float:
+    """Radians between the rays (H, W, 3) of two neighbouring pixels at the image's centre."""
+    r, c = rays.shape[0] // 2, min(rays.shape[1] // 2, rays.shape[1] - 2)
+    a, b = (np.asarray(rays[r, k], np.float64) for k in (c, c + 1))
+    cos = a @ b / (np.linalg.norm(a) * np.linalg.norm(b))
+    return float(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
 def _entry(
-    hull: np.ndarray, top: float, o_uvh: np.ndarray, d_uvh: np.ndarray, floor: float = 0.0
+    hull: np.ndarray,
+    top: float,
+    o_uvh: np.ndarray,
+    d_uvh: np.ndarray,
+    floor: float = 0.0,
+    grow: float = 0.0,
 ) -> np.ndarray:
     """Distance along each ray (R,) at which it enters a prism, inf where it misses it.
 
     Cyrus-Beck clipping of the rays ``o + s d`` (table basis: u, v, height; o (3,), d (R, 3))
-    against the slab ``floor <= h <= top`` and the hull's half planes.
+    against the slab ``floor <= h <= top`` and the hull's half planes, each moved ``grow``
+    metres outwards.
     """
     lo = np.zeros(len(d_uvh))
     hi = np.full(len(d_uvh), np.inf)
@@ -90,6 +111,7 @@ def _entry(
     e = np.roll(hull, -1, axis=0) - hull
     inward = np.stack([-e[:, 1], e[:, 0]], axis=1)  # left of a counter-clockwise edge
     num = inward[:, 0] * (o_uvh[0] - hull[:, 0]) + inward[:, 1] * (o_uvh[1] - hull[:, 1])
+    num = num + grow * np.hypot(inward[:, 0], inward[:, 1])
     # All edges at once (R, V): one pass instead of one per edge.
     den = d_uvh[:, :1] * inward[None, :, 0] + d_uvh[:, 1:2] * inward[None, :, 1]
     # A ray parallel to an edge up to rounding divides by a tiny den: +-inf is the limit meant.
@@ -144,6 +166,7 @@ def claim_dropouts(
     # Rays in the table basis straight from the camera frame, only for the pixels in question.
     cam_to_uvh = T[:3, :3].T @ basis.T
     best = np.full(labels.shape, np.inf)
+    pixel_angle = _pixel_angle(rays)
     free = ~valid & (labels < 0)
     H, W = labels.shape
     # Each object's box from one pass over the labels, not a full-frame scan per object.
@@ -169,7 +192,10 @@ def claim_dropouts(
             return None
         rr, cc = rr + r0, cc + c0
         d = rays[rr, cc].astype(np.float64) @ cam_to_uvh
-        return rr, cc, np.min([_entry(hull, top, o, d) for hull, top in prisms], axis=0)
+        # Half a pixel's footprint at the object's distance (module docstring).
+        dist = float(np.median(np.linalg.norm(np.asarray(p, np.float64) - T[:3, 3], axis=1)))
+        grow = _GROW_PX * pixel_angle * dist
+        return rr, cc, np.min([_entry(hull, top, o, d, grow=grow) for hull, top in prisms], axis=0)
 
     # The objects' columns side by side in threads; the nearest entry wins, in object order.
     items = list(points.items())
