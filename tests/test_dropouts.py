@@ -152,31 +152,35 @@ def test_a_bottle_column_narrows_to_its_neck():
     assert np.isinf(hits[0]) and np.isfinite(hits[1]) and np.isfinite(one).all()
 
 
+def _ious_with_and_without(kinds, seed, name, off, monkeypatch):
+    """Mask IoUs of a clutter scene with the clutter preset, then with ``dropouts.<name>`` set to
+    ``off`` (the column of before)."""
+    import symjax.perception.dropouts as dropouts
+
+    sc = clutter_scene(kinds, seed=seed)
+    cfg = configs.load("clutter").segmentation
+    now, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    monkeypatch.setattr(dropouts, name, off)
+    before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    return now, before
+
+
 def test_a_box_column_of_its_top_surface_claims_less_of_the_table_behind(monkeypatch):
     # Clutter scene 164 of the 270 examined: box 2's column ended at its highest point, a few
     # millimetres above its top, and took pixels without depth beyond its far edge (IoU 0.942,
     # with the columns half a pixel wider); ending at the top surface, 0.957, and no object of
     # the scene worse.
-    import symjax.perception.dropouts as dropouts
-
-    sc = clutter_scene(("box", "bottle", "box", "can", "can"), seed=344)
-    cfg = configs.load("clutter").segmentation
-    now, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
-    monkeypatch.setattr(dropouts, "_TOP_BAND", 0.0)
-    before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    kinds = ("box", "bottle", "box", "can", "can")
+    now, before = _ious_with_and_without(kinds, 344, "_TOP_BAND", 0.0, monkeypatch)
     assert now[2] >= before[2] + 0.01 and np.all(now >= before - 0.002)
 
 
 def test_a_bottle_column_of_its_neck_claims_less_of_the_table_beside_it(monkeypatch):
     # Clutter scene 205 of the 270 examined: bottle 0's column was its body's footprint up to
-    # its neck's top (IoU 0.911); narrowed to the neck above 0.85 of its top, 0.975.
-    import symjax.perception.dropouts as dropouts
-
-    sc = clutter_scene(("bottle", "bottle", "box", "bottle", "can"), seed=432)
-    cfg = configs.load("clutter").segmentation
-    now, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
-    monkeypatch.setattr(dropouts, "_NECK_AREA", 0.0)  # never a neck: one prism
-    before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    # its neck's top (IoU 0.911); narrowed to the neck above 0.85 of its top, 0.975. (An area
+    # share of 0 makes no column a neck: one prism.)
+    kinds = ("bottle", "bottle", "box", "bottle", "can")
+    now, before = _ious_with_and_without(kinds, 432, "_NECK_AREA", 0.0, monkeypatch)
     assert now[0] >= before[0] + 0.04 and np.all(now >= before - 0.002)
 
 
@@ -197,11 +201,6 @@ def test_columns_half_a_pixel_wider_take_their_objects_last_pixels(monkeypatch):
     # Clutter scene 174 of the 270 examined: the hull of bottle 1's measured points lies inside
     # its outline, whose last pixels have no depth (IoU 0.848); grown by half a pixel, 0.858, and
     # the scene's mean IoU up.
-    import symjax.perception.dropouts as dropouts
-
-    sc = clutter_scene(("bottle", "bottle", "can", "can", "box"), seed=374)
-    cfg = configs.load("clutter").segmentation
-    now, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
-    monkeypatch.setattr(dropouts, "_GROW_PX", 0.0)
-    before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, cfg))
+    kinds = ("bottle", "bottle", "can", "can", "box")
+    now, before = _ious_with_and_without(kinds, 374, "_GROW_PX", 0.0, monkeypatch)
     assert before[1] < 0.85 <= now.min() and now.mean() > before.mean() + 0.003
