@@ -179,7 +179,8 @@ def claim_dropouts(
         box = boxes[k] if 0 <= k < len(boxes) else None
         if len(p) < 3 or box is None:
             return None
-        prisms = _column(np.asarray(p, np.float64), basis, offset)
+        p = np.asarray(p, np.float64)
+        prisms = _column(p, basis, offset)
         if len(prisms[0][0]) < 3 or prisms[-1][1] <= 0:
             return None
         # Within max_px of this object in the image: its box and margin only.
@@ -193,7 +194,7 @@ def claim_dropouts(
         rr, cc = rr + r0, cc + c0
         d = rays[rr, cc].astype(np.float64) @ cam_to_uvh
         # Half a pixel's footprint at the object's distance (module docstring).
-        dist = float(np.median(np.linalg.norm(np.asarray(p, np.float64) - T[:3, 3], axis=1)))
+        dist = float(np.median(np.linalg.norm(p - T[:3, 3], axis=1)))
         grow = _GROW_PX * pixel_angle * dist
         return rr, cc, np.min([_entry(hull, top, o, d, grow=grow) for hull, top in prisms], axis=0)
 
