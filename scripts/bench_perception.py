@@ -16,10 +16,11 @@ of the grasp cycle (objects standing apart: what the crease cut costs on mugs, c
 the symmetry plane of every separated object against the truth and against the same object
 rendered alone; and the time of a 640x480 and a 1280x720 clutter frame. With
 ``--held-out-scenes 180`` also the clutter scenes drawn after the 270 that the segmentation's
-rules were made on (``symjax.perception.clutter_benchmark.held_out_scenes``).
+rules were made on (``symjax.perception.clutter_benchmark.held_out_scenes``); with
+``--fresh-scenes 270`` the scenes drawn from seed 10,000 on (``fresh_scenes``), a second sample.
 
 Usage: ``python scripts/bench_perception.py [--repeats 20] [--clutter-scenes 30]
-[--held-out-scenes 180]``
+[--held-out-scenes 180] [--fresh-scenes 270 [--fresh-seed 10000]]``
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from symjax.cli.common import PresetArgs, parse
+from symjax.cli.common import PresetArgs, parse, run
 
 FLOOR_MS = 150.0
 
@@ -72,6 +73,7 @@ def _clutter_rows(args, default) -> list[dict]:
     from symjax.perception import segment
     from symjax.perception.clutter_benchmark import (
         benchmark_scenes,
+        fresh_scenes,
         held_out_scenes,
         scan_scenes,
         score_scenes,
@@ -83,6 +85,7 @@ def _clutter_rows(args, default) -> list[dict]:
     rows = []
     scenes = benchmark_scenes(args.clutter_scenes)
     held_out = held_out_scenes(args.held_out_scenes) if args.held_out_scenes else []
+    held_out += fresh_scenes(args.fresh_scenes, args.fresh_seed)
     t = time.perf_counter()
     acc = score_scenes(scenes, cfg)
     run_s = time.perf_counter() - t
@@ -163,10 +166,19 @@ class Args(PresetArgs):
     held_out_scenes: int = 0
     """Clutter scenes drawn after the 270 the segmentation's rules were made on, scored too
     (``clutter_accuracy_clutter_held_out``; 180 take a few minutes more); 0 = none."""
+    fresh_scenes: int = 0
+    """Clutter scenes drawn from ``fresh_seed`` on, scored too (``clutter_accuracy_clutter_fresh``):
+    a second sample of new clutter, far past the held-out draw; 0 = none."""
+    fresh_seed: int = 10_000
+    """The first seed of the fresh draw (past the examined scenes' seeds)."""
 
 
 def main(argv=None) -> int:
     args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_perception.py", __doc__)
+    if args.fresh_scenes:  # a bad count or seed is told now, not after the timed cases
+        from symjax.perception.clutter_benchmark import fresh_scenes
+
+        fresh_scenes(min(args.fresh_scenes, 0), args.fresh_seed)
 
     import jax
 
@@ -239,4 +251,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run("bench_perception.py", main))

@@ -61,6 +61,7 @@ from symjax.errors import (
     UnknownNameError,
 )
 from symjax.execution import ExecutionConfig
+from symjax.perception.clutter_benchmark import fresh_scenes
 from symjax.perception.synthetic import clutter_scene
 from symjax.symmetry import SymmetryConfig, search, search_batch
 
@@ -435,6 +436,8 @@ CASES = [
     ("segment-rgb-shape", lambda d: perception.segment(np.ones((CAM.height, CAM.width)), CAM, rgb=np.zeros((4, 4, 3), np.uint8)), ShapeError, ["rgb", "(H, W, 3)", "(4, 4, 3)"]),
     ("clutter-kind", lambda d: clutter_scene(("box", "teapot")), InvalidInputError, ["'teapot'", "box", "can", "bottle"]),
     ("clutter-arrangement", lambda d: clutter_scene(("box", "can"), arrangement="pile"), InvalidInputError, ["'pile'", "side_by_side", "front_back", "cluster"]),
+    ("clutter-fresh-count", lambda d: fresh_scenes(-3, 10_000), ConfigError, ["fresh scenes", ">= 0", "-3"]),
+    ("clutter-fresh-examined-seed", lambda d: fresh_scenes(5, 100), ConfigError, ["seed > 567", "seed 100"]),
     ("segment-no-camera", lambda d: perception.segment(VIEW.depth), InvalidInputError, ["camera"]),
     ("segment-config", lambda d: perception.segment(PTS, config={"seed": 1}), ConfigError, ["SegmentationConfig", "dict"]),
     # --- grasp, hands, robots, decomposition -------------------------------------------------

@@ -276,6 +276,19 @@ def test_held_out_scenes_follow_the_examined_ones(monkeypatch):
     )
 
 
+def test_fresh_scenes_are_the_draw_from_their_seed():
+    # A second sample of new clutter: the same draw as the examined and held-out scenes, from a
+    # seed of its own.
+    from symjax.perception import clutter_benchmark as cb
+
+    fresh = cb.fresh_scenes(1, 10_000)
+    assert [g for g, _ in fresh] == ["clutter_fresh"]
+    seed = fresh[0][1].recipe["seed"]
+    assert seed >= 10_000
+    assert cb._clutter_draw(1, 10_000)[0].recipe["seed"] == seed
+    assert cb.fresh_scenes(0, cb.LAST_EXAMINED_SEED + 1) == []
+
+
 def test_the_last_examined_seed_is_a_scene_of_the_draw():
     # The held-out draw starts after it; that it is the draw's 270th scene was counted once
     # (rendering the 567 seeds before it takes minutes).

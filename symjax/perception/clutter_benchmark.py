@@ -7,12 +7,14 @@ import math
 
 import numpy as np
 
+from symjax.errors import ConfigError
 from symjax.perception.config import SegmentationConfig
 from symjax.perception.synthetic import SyntheticScene, clutter_scene
 
 __all__ = [
     "EXAMINED_CLUTTER",
     "benchmark_scenes",
+    "fresh_scenes",
     "held_out_scenes",
     "match_ious",
     "plane_error",
@@ -63,6 +65,25 @@ def held_out_scenes(n: int = 180) -> list[tuple[str, SyntheticScene]]:
     :data:`LAST_EXAMINED_SEED`), none of which was looked at while the segmentation's rules
     were made: what to expect on new clutter."""
     return [("clutter_held_out", sc) for sc in _clutter_draw(n, LAST_EXAMINED_SEED + 1)]
+
+
+def fresh_scenes(n: int, seed: int) -> list[tuple[str, SyntheticScene]]:
+    """``("clutter_fresh", scene)``: the first ``n`` clutter scenes of the same draw from
+    ``seed`` on. A seed far past the held-out draw (:func:`held_out_scenes` reaches seed 916 for
+    180 scenes) gives scenes that no rule and no held-out check has seen: a second sample of new
+    clutter, to tell the rate from the luck of one draw.
+
+    Raises:
+        ConfigError: ``n`` is negative, or ``seed`` is one of the examined scenes' seeds.
+    """
+    if n < 0:
+        raise ConfigError(f"the number of fresh scenes must be >= 0, got {n}")
+    if seed <= LAST_EXAMINED_SEED:
+        raise ConfigError(
+            f"fresh clutter scenes start after the examined ones (seed > {LAST_EXAMINED_SEED}),"
+            f" got seed {seed}"
+        )
+    return [("clutter_fresh", sc) for sc in _clutter_draw(n, seed)]
 
 
 def scan_scenes(n: int = 8) -> list[tuple[str, SyntheticScene]]:
