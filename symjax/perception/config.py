@@ -89,6 +89,10 @@ class SegmentationConfig:
             part more than this outside its circle go to a neighbour whose footprint holds them.
         round_residual: A part's wall is round when its points lie within this median distance
             (m) of a circle.
+        round_objects: With creases, a part whose wall holds a round object's circle loses the
+            piece beyond it (a can tangent to a box face, or the strip of a neighbour it took):
+            the piece becomes a part of its own before the joins
+            (:mod:`symjax.perception.round_split`).
         halves_extent: Metres; 0 = off. Two parts that do not touch, lie behind one nearer part
             and reach the same top height are the halves of one object that the nearer one cuts
             apart (a box behind a bottle's neck), joined when together they are at most this wide
@@ -149,6 +153,7 @@ class SegmentationConfig:
     halves_extent: float = 0.0
     level_top_px: int = 0
     object_holes: bool = False
+    round_objects: bool = False
     seed: int = 0
 
     def __post_init__(self) -> None:

@@ -46,6 +46,7 @@ from symjax.perception.object_info import (
 from symjax.perception.occluded_halves import join_occluded_halves
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
 from symjax.perception.round_parts import settle_round_parts
+from symjax.perception.round_split import split_round_objects
 from symjax.perception.support import join_supported
 from symjax.perception.table_frame import in_table_frame
 from symjax.table import TablePlane
@@ -161,6 +162,8 @@ def _segment_depth(
             lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa)
             if kappa is not None and lab.max() > 0:
                 foot = table_footprint(lab, rays[sl], conn[sl], T, n)
+                if cfg.round_objects:  # (before the joins: they give a strip back)
+                    lab = split_round_objects(lab, foot, height[sl], cfg.min_cluster_points)
                 lab = join_occluded_halves(lab, foot, height[sl], conn[sl], cfg)
                 lab, smooth = join_supported(
                     lab, foot, height[sl], cfg, depth=conn[sl], with_contacts=True

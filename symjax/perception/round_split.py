@@ -1,0 +1,140 @@
+"""A round object and what it took in one part: a can that touches a box face, split apart.
+
+A can or a bottle that touches a box face tangentially meets it without a depth step and without
+a crease: the surfaces are continuous, only their curvature changes. The crease cut then leaves
+both in one part, or gives the round object a strip of its neighbour. On the table the two stay
+apart: the round object's wall stands on a circle, and what lies beyond that circle is not its.
+
+A part's wall (its points below :data:`_WALL` of its top height) is searched for a circle by
+RANSAC on its footprint (three points a circle, the circle with most points within
+:data:`_TOLERANCE`). The circle is a round object's wall when its points cover a contiguous arc
+(at least :data:`_ARC`, no gap over :data:`_HOLE`) and most of the wall inside it lies on it
+(:data:`_PURITY`): a rounded box or an irregular object (a scanned mug, a pitcher) has wall
+inside any circle that is not on it. The largest connected piece beyond the circle (by
+:data:`_GAP`) becomes a part of its own; the joins that follow (:mod:`support`,
+:mod:`occluded_halves`) give a strip back to the object it belongs to.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["split_round_objects"]
+
+_WALL = 0.7  # the wall: points below this share of the part's top height (not a bottle's neck)
+_TOLERANCE = 0.0015  # m: a point lies on a circle within this
+_RADII = (0.015, 0.06)  # m: the radii of round objects' walls
+_TRIES = 400  # circles drawn per part (a fixed seed: the same labels every run)
+_SAMPLE = 600  # wall points the circles are scored on, at most
+_ON_PIXELS = 150  # pixels on the circle, at least
+_ARC = 75.0  # deg: the wall's points cover at least this arc ...
+_HOLE = 15.0  # ... with no gap inside it over this
+_PURITY = 0.6  # share of the wall inside the circle's ring that lies on the circle, at least
+_GAP = 0.006  # m: beyond the circle by this, a pixel is not the round object's
+_REST = 0.03  # the piece beyond: at least this share of the part (and min_cluster_points)
+
+
+def _circles(points: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Circles through random triples of points (N, 2): centres (C, 2) and radii (C,) within
+    :data:`_RADII` (collinear triples dropped)."""
+    a, b, c = (points[i] for i in rng.integers(0, len(points), (_TRIES, 3)).T)
+    det = 2.0 * (a[:, 0] * (b[:, 1] - c[:, 1]) + b[:, 0] * (c[:, 1] - a[:, 1])
+                 + c[:, 0] * (a[:, 1] - b[:, 1]))  # fmt: skip
+    ok = np.abs(det) > 1e-12
+    det = np.where(ok, det, 1.0)
+    sa, sb, sc = (a * a).sum(1), (b * b).sum(1), (c * c).sum(1)
+    x = (sa * (b[:, 1] - c[:, 1]) + sb * (c[:, 1] - a[:, 1]) + sc * (a[:, 1] - b[:, 1])) / det
+    y = (sa * (c[:, 0] - b[:, 0]) + sb * (a[:, 0] - c[:, 0]) + sc * (b[:, 0] - a[:, 0])) / det
+    centre = np.stack([x, y], axis=1)
+    r = np.linalg.norm(a - centre, axis=1)
+    ok &= (r >= _RADII[0]) & (r <= _RADII[1])
+    return centre[ok], r[ok]
+
+
+def _arc(angles: np.ndarray) -> tuple[float, float]:
+    """Degrees of the arc that angles (N,) cover (the circle less its largest gap) and the
+    largest gap inside that arc."""
+    s = np.sort(angles)
+    gaps = np.sort(np.degrees(np.diff(np.concatenate([s, s[:1] + 2.0 * np.pi]))))
+    return 360.0 - float(gaps[-1]), float(gaps[-2]) if len(gaps) > 1 else 0.0
+
+
+def _beyond_wall(foot: np.ndarray, height: np.ndarray, rng) -> np.ndarray | None:
+    """Which of a part's pixels (footprints (N, 2), heights (N,)) lie beyond a round object's
+    wall circle, or None when its wall has no such circle."""
+    wall = height < _WALL * np.percentile(height, 98)
+    points = foot[wall]
+    if len(points) < 50:
+        return None
+    sample = points[:: max(1, len(points) // _SAMPLE)]
+    centre, r = _circles(sample, rng)
+    if len(r) == 0:
+        return None
+    # On the circle: (r - tol)^2 < d^2 < (r + tol)^2, without the square roots of |p - c|.
+    s32, c32 = sample.astype(np.float32), centre.astype(np.float32)
+    dx = s32[None, :, 0] - c32[:, :1]
+    dy = s32[None, :, 1] - c32[:, 1:]
+    d2 = dx * dx
+    d2 += dy * dy
+    lo, hi = (((r + e) ** 2)[:, None].astype(np.float32) for e in (-_TOLERANCE, _TOLERANCE))
+    best = int(np.argmax(((d2 > lo) & (d2 < hi)).sum(axis=1)))
+    centre, r = centre[best], r[best]
+    dist = np.linalg.norm(foot - centre, axis=1)
+    on = wall & (np.abs(dist - r) < _TOLERANCE)
+    beyond = dist > r + _GAP
+    if on.sum() < _ON_PIXELS or on.sum() < _PURITY * (wall & ~beyond).sum():
+        return None
+    arc, hole = _arc(np.arctan2(foot[on, 1] - centre[1], foot[on, 0] - centre[0]))
+    return beyond if arc >= _ARC and hole <= _HOLE else None
+
+
+def split_round_objects(
+    labels: np.ndarray, foot: np.ndarray, height: np.ndarray, min_pixels: int
+) -> np.ndarray:
+    """Splits off what lies beyond a round object's wall in each part (module docstring).
+
+    Args:
+        labels: (H, W) int32 parts, -1 none.
+        foot: (H, W, 2) the pixels' points on the table (:func:`footprint.table_footprint`),
+            metres.
+        height: (H, W) height above the table, metres.
+        min_pixels: The fewest pixels of a piece split off (``min_cluster_points``).
+
+    Returns:
+        (H, W) int32 labels, renumbered by decreasing size (``labels`` itself when nothing is
+        split).
+    """
+    import cv2
+    from scipy.ndimage import find_objects
+
+    n = int(labels.max(initial=-1)) + 1
+    out, new = labels.copy(), n
+    rng = np.random.default_rng(0)
+    for k, box in enumerate(find_objects(labels + 1, max_label=n)):
+        if box is None:
+            continue
+        rr, cc = np.nonzero(labels[box] == k)
+        if len(rr) < 2 * min_pixels:
+            continue
+        rr, cc = rr + box[0].start, cc + box[1].start
+        beyond = _beyond_wall(foot[rr, cc].astype(np.float64), height[rr, cc], rng)
+        if beyond is None or beyond.sum() < max(min_pixels, _REST * len(rr)):
+            continue
+        piece = np.zeros(labels.shape, np.uint8)
+        piece[rr[beyond], cc[beyond]] = 1
+        _, comp = cv2.connectedComponents(piece, connectivity=4)
+        ids = comp[rr, cc]
+        sizes = np.bincount(ids[beyond])
+        sizes[0] = 0
+        largest = int(np.argmax(sizes))
+        if sizes[largest] < max(min_pixels, _REST * len(rr)):
+            continue
+        take = ids == largest
+        out[rr[take], cc[take]] = new
+        new += 1
+    if new == n:
+        return labels
+    size = np.bincount(out[out >= 0], minlength=new)
+    remap = np.full(new + 1, -1, np.int32)
+    remap[np.argsort(-size, kind="stable")] = np.arange(new, dtype=np.int32)
+    return remap[out]
