@@ -436,7 +436,7 @@ CASES = [
     ("segment-rgb-shape", lambda d: perception.segment(np.ones((CAM.height, CAM.width)), CAM, rgb=np.zeros((4, 4, 3), np.uint8)), ShapeError, ["rgb", "(H, W, 3)", "(4, 4, 3)"]),
     ("clutter-kind", lambda d: clutter_scene(("box", "teapot")), InvalidInputError, ["'teapot'", "box", "can", "bottle"]),
     ("clutter-arrangement", lambda d: clutter_scene(("box", "can"), arrangement="pile"), InvalidInputError, ["'pile'", "side_by_side", "front_back", "cluster"]),
-    ("segmentation-round-objects", lambda d: perception.SegmentationConfig(round_objects="yes"), ConfigError, ["round_objects", "'yes'", "bool"]),
+    ("segmentation-round-objects", lambda d: perception.SegmentationConfig(round_objects="yes"), ConfigError, ["round_objects", "'yes'", "true or false"]),
     ("clutter-fresh-count", lambda d: fresh_scenes(-3, 10_000), ConfigError, ["fresh scenes", ">= 0", "-3"]),
     ("clutter-fresh-examined-seed", lambda d: fresh_scenes(5, 100), ConfigError, ["seed > 567", "seed 100"]),
     ("segment-no-camera", lambda d: perception.segment(VIEW.depth), InvalidInputError, ["camera"]),
