@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from symjax.perception.support import relabel_by_size
+
 __all__ = ["split_round_objects"]
 
 _WALL = 0.7  # the wall: points below this share of the part's top height (not a bottle's neck)
@@ -113,28 +115,20 @@ def split_round_objects(
     for k, box in enumerate(find_objects(labels + 1, max_label=n)):
         if box is None:
             continue
-        rr, cc = np.nonzero(labels[box] == k)
+        rr, cc = np.nonzero(labels[box] == k)  # in the part's box
         if len(rr) < 2 * min_pixels:
             continue
-        rr, cc = rr + box[0].start, cc + box[1].start
-        beyond = _beyond_wall(foot[rr, cc].astype(np.float64), height[rr, cc], rng)
-        if beyond is None or beyond.sum() < max(min_pixels, _REST * len(rr)):
+        beyond = _beyond_wall(foot[box][rr, cc].astype(np.float64), height[box][rr, cc], rng)
+        least = max(min_pixels, _REST * len(rr))
+        if beyond is None or beyond.sum() < least:
             continue
-        piece = np.zeros(labels.shape, np.uint8)
+        piece = np.zeros(labels[box].shape, np.uint8)
         piece[rr[beyond], cc[beyond]] = 1
-        _, comp = cv2.connectedComponents(piece, connectivity=4)
-        ids = comp[rr, cc]
+        ids = cv2.connectedComponents(piece, connectivity=4)[1][rr, cc]
         sizes = np.bincount(ids[beyond])
         sizes[0] = 0
         largest = int(np.argmax(sizes))
-        if sizes[largest] < max(min_pixels, _REST * len(rr)):
-            continue
-        take = ids == largest
-        out[rr[take], cc[take]] = new
-        new += 1
-    if new == n:
-        return labels
-    size = np.bincount(out[out >= 0], minlength=new)
-    remap = np.full(new + 1, -1, np.int32)
-    remap[np.argsort(-size, kind="stable")] = np.arange(new, dtype=np.int32)
-    return remap[out]
+        if sizes[largest] >= least:
+            out[box][rr[ids == largest], cc[ids == largest]] = new
+            new += 1
+    return labels if new == n else relabel_by_size(out)
