@@ -132,12 +132,15 @@ def test_coplanar_shoulders_and_grazing_faces_go_back(seed, kinds, k):
     # Clutter benchmark scenes 17 (two bottles' shoulders at one height) and 13 (a box took a
     # bottle's shoulder): under 0.85 without, at least 0.85 with, and no object worse by more
     # than a hundredth.
+    # (Measured before the round objects' split, which now mends scene 17 on its own.)
     sc = clutter_scene(kinds, seed=seed)
-    off = dataclasses.replace(CFG, round_margin=0.0)
+    on = dataclasses.replace(CFG, round_objects=False)
+    off = dataclasses.replace(on, round_margin=0.0)
     before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, off))
-    after, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, CFG))
+    after, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, on))
     assert before.min() < 0.85 <= after.min()
     assert np.all(after >= before - 0.01)
+    assert match_ious(sc.truth, segment(sc.depth, sc.camera, CFG))[0].min() >= 0.85
 
 
 def test_a_few_millimetres_wide_circle_is_no_wall(monkeypatch):
