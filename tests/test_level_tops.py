@@ -137,7 +137,7 @@ def test_a_can_behind_a_can_of_one_height_comes_apart(scene, monkeypatch):
         result = segment(sc.depth, sc.camera, BEFORE_ROUND)
         ious, _ = match_ious(sc.truth, result)
         assert (len(result) == len(kinds) and ious[hidden] >= 0.85) == want, (len(result), ious)
-    monkeypatch.setattr(level_tops, "_WAIST_RADII", 3)
+    monkeypatch.undo()  # the module's own waists
     ious, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, CFG))
     assert ious[hidden] >= 0.85  # and whole with the preset of today
 
@@ -201,6 +201,6 @@ def test_a_lid_keeps_a_small_core_at_a_larger_disc(monkeypatch):
         result = segment(sc.depth, sc.camera, BEFORE_ROUND)
         ious, _ = match_ious(sc.truth, result)
         assert (len(result) == len(kinds) and ious[1] >= 0.85) == want, (len(result), ious)
-    monkeypatch.setattr(level_tops, "_least", level_tops._least)
+    monkeypatch.undo()  # the module's own least core
     ious, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, CFG))
     assert ious[1] >= 0.85  # and whole with the preset of today
