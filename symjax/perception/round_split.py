@@ -13,6 +13,12 @@ RANSAC on its footprint (three points a circle, the circle with most points with
 inside any circle that is not on it. The largest connected piece beyond the circle (by
 :data:`_GAP`) becomes a part of its own; the joins that follow (:mod:`support`,
 :mod:`occluded_halves`) give a strip back to the object it belongs to.
+
+A wall with a wider gap (up to :data:`_WIDE_HOLE`: an occluder's strip in front of it) counts
+when the part has next to no wall by the circle inside the gap (:data:`_GAP_FILL`: two faces
+of a small box that a circle grazes leave their corner there), and gives up only a piece that
+stands beside it (:data:`_PIECE_WALL` of it wall): a flat piece is then a sliver of a
+neighbour's top, which the joins may not give back when its own part does not reach that far.
 """
 
 from __future__ import annotations
@@ -30,7 +36,10 @@ _TRIES = 400  # circles drawn per part (a fixed seed: the same labels every run)
 _SAMPLE = 600  # wall points the circles are scored on, at most
 _ON_PIXELS = 150  # pixels on the circle, at least
 _ARC = 75.0  # deg: the wall's points cover at least this arc ...
-_HOLE = 15.0  # ... with no gap inside it over this
+_HOLE = 15.0  # ... with no gap inside it over this, ...
+_WIDE_HOLE = 30.0  # ... or over this, when the gap is empty and the piece beyond walled:
+_GAP_FILL = 0.15  # wall pixels in the gap within _GAP of the circle, per pixel on it, at most
+_PIECE_WALL = 0.1  # share of the piece's pixels that are wall, at least
 _PURITY = 0.6  # share of the wall inside the circle's ring that lies on the circle, at least
 _GAP = 0.006  # m: beyond the circle by this, a pixel is not the round object's
 _REST = 0.03  # the piece beyond: at least this share of the part (and min_cluster_points)
@@ -53,17 +62,21 @@ def _circles(points: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, 
     return centre[ok], r[ok]
 
 
-def _arc(angles: np.ndarray) -> tuple[float, float]:
-    """Degrees of the arc that angles (N,) cover (the circle less its largest gap) and the
-    largest gap inside that arc."""
+def _arc(angles: np.ndarray) -> tuple[float, float, float]:
+    """Degrees of the arc that angles (N,) in radians cover (the circle less its largest gap),
+    the largest gap inside that arc, and the angle where that gap starts (radians)."""
     s = np.sort(angles)
-    gaps = np.sort(np.degrees(np.diff(np.concatenate([s, s[:1] + 2.0 * np.pi]))))
-    return 360.0 - float(gaps[-1]), float(gaps[-2]) if len(gaps) > 1 else 0.0
+    gaps = np.degrees(np.diff(np.concatenate([s, s[:1] + 2.0 * np.pi])))
+    if len(gaps) < 2:
+        return 360.0 - float(gaps[0]), 0.0, float(s[0])
+    order = np.argsort(gaps)
+    return 360.0 - float(gaps[order[-1]]), float(gaps[order[-2]]), float(s[order[-2]])
 
 
-def _beyond_wall(foot: np.ndarray, height: np.ndarray, rng) -> np.ndarray | None:
+def _beyond_wall(foot: np.ndarray, height: np.ndarray, rng) -> tuple | None:
     """Which of a part's pixels (footprints (N, 2), heights (N,)) lie beyond a round object's
-    wall circle, or None when its wall has no such circle."""
+    wall circle (N,) bool, which are wall (N,) bool and whether the circle's arc has a gap over
+    :data:`_HOLE`; None when its wall has no such circle."""
     wall = height < _WALL * np.percentile(height, 98)
     points = foot[wall]
     if len(points) < 50:
@@ -86,8 +99,17 @@ def _beyond_wall(foot: np.ndarray, height: np.ndarray, rng) -> np.ndarray | None
     beyond = dist > r + _GAP
     if on.sum() < _ON_PIXELS or on.sum() < _PURITY * (wall & ~beyond).sum():
         return None
-    arc, hole = _arc(np.arctan2(foot[on, 1] - centre[1], foot[on, 0] - centre[0]))
-    return beyond if arc >= _ARC and hole <= _HOLE else None
+    angle = np.arctan2(foot[:, 1] - centre[1], foot[:, 0] - centre[0])
+    arc, hole, start = _arc(angle[on])
+    if arc < _ARC or hole > _WIDE_HOLE:
+        return None
+    if hole > _HOLE:
+        # A round wall's gap is where something in front hides it: the part has no wall there
+        # by the circle. Two box faces that a circle grazes leave their corner in the gap.
+        in_gap = np.mod(angle - start, 2.0 * np.pi) < np.radians(hole)
+        if (in_gap & wall & ~on & ~beyond).sum() > _GAP_FILL * on.sum():
+            return None
+    return beyond, wall, hole > _HOLE
 
 
 def split_round_objects(
@@ -118,17 +140,19 @@ def split_round_objects(
         rr, cc = np.nonzero(labels[box] == k)  # in the part's box
         if len(rr) < 2 * min_pixels:
             continue
-        beyond = _beyond_wall(foot[box][rr, cc].astype(np.float64), height[box][rr, cc], rng)
+        found = _beyond_wall(foot[box][rr, cc].astype(np.float64), height[box][rr, cc], rng)
         least = max(min_pixels, _REST * len(rr))
-        if beyond is None or beyond.sum() < least:
+        if found is None or found[0].sum() < least:
             continue
+        beyond, wall, wide = found
         piece = np.zeros(labels[box].shape, np.uint8)
         piece[rr[beyond], cc[beyond]] = 1
         ids = cv2.connectedComponents(piece, connectivity=4)[1][rr, cc]
         sizes = np.bincount(ids[beyond])
         sizes[0] = 0
         largest = int(np.argmax(sizes))
-        if sizes[largest] >= least:
+        walled = not wide or wall[ids == largest].mean() >= _PIECE_WALL
+        if sizes[largest] >= least and walled:
             out[box][rr[ids == largest], cc[ids == largest]] = new
             new += 1
     return labels if new == n else relabel_by_size(out)
