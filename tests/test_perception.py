@@ -289,6 +289,38 @@ def test_fresh_scenes_are_the_draw_from_their_seed():
     assert cb.fresh_scenes(0, cb.LAST_EXAMINED_SEED + 1) == []
 
 
+def test_symmetry_rows_pair_the_separated_and_the_alone(monkeypatch):
+    # The two shares are of the same objects: the difference of the counts is the difference of
+    # the discordant pairs, whose binomial test is the McNemar p-value. A search that is right
+    # only on the objects seen alone (monkeypatched) makes every pair discordant.
+    from symjax import configs
+    from symjax.perception import clutter_benchmark as cb
+    from symjax.perception.synthetic import clutter_scene
+
+    scenes = [("side_by_side", clutter_scene(("box", "can"), 0, "side_by_side"))]
+    config = configs.load("clutter").segmentation
+    row = cb.symmetry_rows(scenes, config)
+    n = row["objects"]
+    assert n == 2 and 0.0 <= row["mcnemar_p"] <= 1.0
+    diff = round((row["plane_ok_separated"] - row["plane_ok_alone"]) * n)
+    assert diff == row["right_only_separated"] - row["right_only_alone"]
+    alone_ids = set()
+    real = cb.plane_error
+
+    def only_alone(scene, k, normal, offset):
+        # the second call per object is the object alone (symmetry_rows' order)
+        key = (id(scene), k)
+        first = key not in alone_ids
+        alone_ids.add(key)
+        return (90.0, 1.0) if first else real(scene, k, normal, offset)
+
+    monkeypatch.setattr(cb, "plane_error", only_alone)
+    row = cb.symmetry_rows(scenes, config)
+    assert row["plane_ok_separated"] == 0.0 and row["right_only_separated"] == 0
+    assert row["right_only_alone"] == round(row["plane_ok_alone"] * n)
+    assert row["mcnemar_p"] == (0.5 if row["right_only_alone"] == 2 else 1.0)
+
+
 def test_the_last_examined_seed_is_a_scene_of_the_draw():
     # The held-out draw starts after it; that it is the draw's 270th scene was counted once
     # (rendering the 567 seeds before it takes minutes).

@@ -167,11 +167,18 @@ def plane_error(scene: SyntheticScene, k: int, normal, offset) -> tuple[float, f
 
 def symmetry_rows(scenes, config: SegmentationConfig) -> dict:
     """Share of separated objects (IoU >= 0.85) whose symmetry plane is within 10 deg and 10 mm
-    of the truth, and the same for each of them segmented from a frame where it stands alone."""
+    of the truth, and the same for each of them segmented from a frame where it stands alone.
+
+    The two shares are paired (the same objects): also the objects right only separated and
+    only alone, and the exact two-sided McNemar p-value of that difference (the binomial test
+    of the discordant pairs), which says whether the two rates differ beyond chance.
+    """
+    from scipy.stats import binomtest
+
     from symjax.perception.segmentation import segment
     from symjax.symmetry import search
 
-    good_sep = good_alone = n = 0
+    good_sep = good_alone = n = sep_only = alone_only = 0
     for _, sc in scenes:
         res = segment(sc.depth, sc.camera, config)
         ious, match = match_ious(sc.truth, res)
@@ -181,18 +188,24 @@ def symmetry_rows(scenes, config: SegmentationConfig) -> dict:
             if len(solo) != 1:
                 continue
             n += 1
-            for obs, tally in ((res.objects[match[k]], "sep"), (solo.objects[0], "alone")):
+            ok = []
+            for obs in (res.objects[match[k]], solo.objects[0]):
                 out = search(obs)
                 deg, dist = plane_error(sc, int(k), out.normal, out.offset)
-                ok = deg <= 10.0 and dist <= 0.010
-                if tally == "sep":
-                    good_sep += ok
-                else:
-                    good_alone += ok
+                ok.append(deg <= 10.0 and dist <= 0.010)
+            good_sep += ok[0]
+            good_alone += ok[1]
+            sep_only += ok[0] and not ok[1]
+            alone_only += ok[1] and not ok[0]
+    discordant = sep_only + alone_only
+    p = binomtest(sep_only, discordant, 0.5).pvalue if discordant else 1.0
     return {
         "objects": n,
         "plane_ok_separated": round(good_sep / max(n, 1), 3),
         "plane_ok_alone": round(good_alone / max(n, 1), 3),
+        "right_only_separated": sep_only,
+        "right_only_alone": alone_only,
+        "mcnemar_p": round(float(p), 3),
         "criterion": "within 10 deg and 10 mm of a true mirror plane",
     }
 
