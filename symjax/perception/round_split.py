@@ -141,10 +141,12 @@ def split_round_objects(
         if len(rr) < 2 * min_pixels:
             continue
         found = _beyond_wall(foot[box][rr, cc].astype(np.float64), height[box][rr, cc], rng)
-        least = max(min_pixels, _REST * len(rr))
-        if found is None or found[0].sum() < least:
+        if found is None:
             continue
         beyond, wall, wide = found
+        least = max(min_pixels, _REST * len(rr))
+        if beyond.sum() < least:
+            continue
         piece = np.zeros(labels[box].shape, np.uint8)
         piece[rr[beyond], cc[beyond]] = 1
         ids = cv2.connectedComponents(piece, connectivity=4)[1][rr, cc]
