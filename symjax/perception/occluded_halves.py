@@ -112,9 +112,9 @@ def join_occluded_halves(
             if principal_extents(both)[0] > config.halves_extent:
                 continue
             arcs = [c for c in (round_footprint(fa), round_footprint(fb)) if c is not None]
-            if arcs and touch[a, b] > _MEET:
-                continue
             if arcs:
+                if touch[a, b] > _MEET:
+                    continue
                 one = round_footprint(both)
                 if one is None or one[1] > _ONE_ARC * min(r for _, r in arcs):
                     continue
