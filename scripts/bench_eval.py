@@ -384,6 +384,8 @@ def _bench_eval_runs(preset: str) -> list[dict]:
             "wall_s": round(wall, 1), "target_s": 60.0, "run_s": round(d["run"]["run_s"], 1),
             "figures_s": round(d["run"]["figures_s"], 1),
             "stages_s": {k: round(v, 2) for k, v in d["summary"]["timings_s"].items()},
+            "stages_ms_per_view": {k: round(1e3 * v / d["run"]["n_views"], 1)
+                                   for k, v in d["summary"]["timings_s"].items()},
             "load_avg": load0, "_folder": str(out),
         })  # fmt: skip
     return rows
