@@ -321,6 +321,17 @@ def test_symmetry_rows_pair_the_separated_and_the_alone(monkeypatch):
     assert row["mcnemar_p"] == (0.5 if row["right_only_alone"] == 2 else 1.0)
 
 
+def test_mcnemar_p_keeps_small_values():
+    # The held-out symmetry row's 4 against 35 discordant pairs: three decimals printed 0.0.
+    from scipy.stats import binomtest
+
+    from symjax.perception.clutter_benchmark import mcnemar_p
+
+    assert mcnemar_p(4, 35) == 3.35e-07
+    assert abs(mcnemar_p(4, 35) - binomtest(4, 39, 0.5).pvalue) < 1e-9
+    assert mcnemar_p(3, 5) == 0.727 and mcnemar_p(0, 0) == 1.0 and mcnemar_p(5, 3) == 0.727
+
+
 def test_the_last_examined_seed_is_a_scene_of_the_draw():
     # The held-out draw starts after it; that it is the draw's 270th scene was counted once
     # (rendering the 567 seeds before it takes minutes).

@@ -17,6 +17,7 @@ __all__ = [
     "fresh_scenes",
     "held_out_scenes",
     "match_ious",
+    "mcnemar_p",
     "plane_error",
     "scan_scenes",
     "score_scenes",
@@ -165,6 +166,15 @@ def plane_error(scene: SyntheticScene, k: int, normal, offset) -> tuple[float, f
     return deg, dist
 
 
+def mcnemar_p(b: int, c: int) -> float:
+    """Exact two-sided McNemar p-value of ``b`` and ``c`` discordant pairs (the binomial test of
+    ``b`` of ``b + c`` at 1/2), to three significant digits: on a large sample it can lie far
+    below 0.001, which three decimals would print as 0. 1.0 without discordant pairs."""
+    from scipy.stats import binomtest
+
+    return float(f"{binomtest(b, b + c, 0.5).pvalue:.3g}") if b + c else 1.0
+
+
 def symmetry_rows(scenes, config: SegmentationConfig) -> dict:
     """Share of separated objects (IoU >= 0.85) whose symmetry plane is within 10 deg and 10 mm
     of the truth, and the same for each of them segmented from a frame where it stands alone.
@@ -173,8 +183,6 @@ def symmetry_rows(scenes, config: SegmentationConfig) -> dict:
     only alone, and the exact two-sided McNemar p-value of that difference (the binomial test
     of the discordant pairs), which says whether the two rates differ beyond chance.
     """
-    from scipy.stats import binomtest
-
     from symjax.perception.segmentation import segment
     from symjax.symmetry import search
 
@@ -197,15 +205,13 @@ def symmetry_rows(scenes, config: SegmentationConfig) -> dict:
             good_alone += ok[1]
             sep_only += ok[0] and not ok[1]
             alone_only += ok[1] and not ok[0]
-    discordant = sep_only + alone_only
-    p = binomtest(sep_only, discordant, 0.5).pvalue if discordant else 1.0
     return {
         "objects": n,
         "plane_ok_separated": round(good_sep / max(n, 1), 3),
         "plane_ok_alone": round(good_alone / max(n, 1), 3),
         "right_only_separated": sep_only,
         "right_only_alone": alone_only,
-        "mcnemar_p": round(float(p), 3),
+        "mcnemar_p": mcnemar_p(sep_only, alone_only),
         "criterion": "within 10 deg and 10 mm of a true mirror plane",
     }
 
