@@ -205,19 +205,16 @@ def _bench_search(n_views: int, ex: ExecutionConfig, rounds: int = 9) -> list[di
 
     times: dict[str, list] = {"batch": [], "single": []}
     cpu: dict[str, list] = {"batch": [], "single": []}
+    last: dict = {}
     for r in range(rounds):
         pair = [("batch", batched), ("single", one_by_one)]
         for name, fn in pair if r % 2 == 0 else pair[::-1]:
             c0, t0 = time.process_time(), time.perf_counter()
-            out = fn()
+            last[name] = fn()
             times[name].append((time.perf_counter() - t0) / len(obs))
             cpu[name].append((time.process_time() - c0) / len(obs))
-            if name == "batch":
-                res = out
-            else:
-                one = out
     ratios = [s / b for s, b in zip(times["single"], times["batch"], strict=True)]
-    planes = np.concatenate([np.asarray(r.normal) for r in res])
+    planes = np.concatenate([np.asarray(r.normal) for r in last["batch"]])
     n = [len(o.points) for o in obs]
     med = statistics.median
     return [{
@@ -231,7 +228,7 @@ def _bench_search(n_views: int, ex: ExecutionConfig, rounds: int = 9) -> list[di
         "batch_wins": sum(x > 1.0 for x in ratios),
         "cpu_s_per_view": round(med(cpu["batch"]), 4),
         "reference_cpu_s_per_view": round(med(cpu["single"]), 4),
-        "max_normal_diff_to_one_by_one": float(np.abs(planes - np.stack(one)).max()),
+        "max_normal_diff_to_one_by_one": float(np.abs(planes - np.stack(last["single"])).max()),
         "load_avg": load0, "load_avg_end": [round(x, 2) for x in os.getloadavg()],
     }]  # fmt: skip
 
