@@ -76,6 +76,18 @@ BOX.apply_translation([0.5, 0.0, 0.06])
 SDH = hands.load("sdh")
 
 
+def _script_main(name: str):
+    """``main`` of ``scripts/<name>.py`` (the benchmarks' own argument checks)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"_script_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module.main
+
+
 def _cands(**change):
     c = grasp.generate(BOX, "uji", config=configs.load("ci").candidates).candidates
     return dataclasses.replace(c, **{k: np.asarray(v) for k, v in change.items()})
@@ -439,6 +451,7 @@ CASES = [
     ("segmentation-round-objects", lambda d: perception.SegmentationConfig(round_objects="yes"), ConfigError, ["round_objects", "'yes'", "true or false"]),
     ("clutter-fresh-count", lambda d: fresh_scenes(-3, 10_000), ConfigError, ["fresh scenes", ">= 0", "-3"]),
     ("clutter-fresh-examined-seed", lambda d: fresh_scenes(5, 100), ConfigError, ["seed > 567", "seed 100"]),
+    ("bench-perception-symmetry-held-out", lambda d: _script_main("bench_perception")(["--symmetry-held-out"]), ConfigError, ["--symmetry-held-out", "--held-out-scenes"]),
     ("segment-no-camera", lambda d: perception.segment(VIEW.depth), InvalidInputError, ["camera"]),
     ("segment-config", lambda d: perception.segment(PTS, config={"seed": 1}), ConfigError, ["SegmentationConfig", "dict"]),
     # --- grasp, hands, robots, decomposition -------------------------------------------------
