@@ -14,7 +14,8 @@ view (the first seeds that qualify), segmented with the ``clutter`` preset (crea
 given the colour image, and, as the reference, with the default; the same for 16 YCB-scan scenes
 of the grasp cycle (objects standing apart: what the crease cut costs on mugs, cups and bowls);
 the symmetry plane of every separated object against the truth and against the same object
-rendered alone; and the time of a 640x480 and a 1280x720 clutter frame. With
+rendered alone (and, to tell what perception costs, the same objects with their true masks, and
+with the true occluders too); and the time of a 640x480 and a 1280x720 clutter frame. With
 ``--held-out-scenes 180`` also the clutter scenes drawn after the 270 that the segmentation's
 rules were made on (``symjax.perception.clutter_benchmark.held_out_scenes``); with
 ``--fresh-scenes 270`` the scenes drawn from seed 10,000 on (``fresh_scenes``), a second sample;
@@ -82,7 +83,8 @@ def _clutter_rows(args, default) -> list[dict]:
     )
     from symjax.perception.synthetic import clutter_scene
 
-    cfg = configs.load("clutter").segmentation
+    preset = configs.load("clutter")
+    cfg, sym = preset.segmentation, preset.symmetry
     rows = []
     scenes = benchmark_scenes(args.clutter_scenes)
     held_out = held_out_scenes(args.held_out_scenes) if args.held_out_scenes else []
@@ -111,13 +113,15 @@ def _clutter_rows(args, default) -> list[dict]:
             row |= {"run_s": round(run_s, 2), "reference_run_s": round(ref_s, 2)}
         rows.append(row)
         print(json.dumps(row), flush=True)
-    row = {"case": "clutter_symmetry_separated_vs_alone", **symmetry_rows(scenes, cfg)}
+    # Each row also has the same objects with their true masks, and with the true occluders too:
+    # what the segmentation costs the search, and what is left with perfect perception.
+    row = {"case": "clutter_symmetry_separated_vs_alone", **symmetry_rows(scenes, cfg, True, sym)}
     rows.append(row)
     print(json.dumps(row), flush=True)
     if args.symmetry_held_out and held_only:
         # Five times the benchmark's objects, none of them looked at for the search's settings.
         row = {"case": "clutter_symmetry_separated_vs_alone_held_out", "scenes": len(held_only)}
-        rows.append(row | symmetry_rows(held_only, cfg))
+        rows.append(row | symmetry_rows(held_only, cfg, True, sym))
         print(json.dumps(rows[-1]), flush=True)
     # The timed frame: the tenth clutter scene (the last one when the benchmark had ten), at
     # both resolutions, so the speed rows stay comparable with earlier runs.

@@ -321,6 +321,63 @@ def test_symmetry_rows_pair_the_separated_and_the_alone(monkeypatch):
     assert row["mcnemar_p"] == (0.5 if row["right_only_alone"] == 2 else 1.0)
 
 
+def test_truth_observation_masks_and_occluders():
+    # A can behind a box: its true mask is its visible pixels; the true occluders are the box's
+    # pixels over its silhouette (and nothing else), and the rule finds the box in front too.
+    # The box in front has no true occluders.
+    from symjax import configs
+    from symjax.perception import clutter_benchmark as cb
+    from symjax.perception.segmentation import segment
+    from symjax.perception.synthetic import clutter_scene
+
+    sc = clutter_scene(("box", "can"), 0, "front_back")
+    config = configs.load("clutter").segmentation
+    table = segment(sc.depth, sc.camera, config).table
+    seen = [(sc.truth == k).sum() for k in (0, 1)]
+    ranks = np.argsort(np.median(sc.depth[sc.truth == 0]) - np.median(sc.depth[sc.truth == 1]))
+    back = 0 if ranks[0] == 1 else 1  # the deeper of the two
+    front = 1 - back
+    for k in (back, front):
+        sil = cb.clutter_scene_alone(sc, k).truth >= 0
+        mine = sc.truth == k
+        hidden = cb.truth_observation(sc, k, table, sil, "hidden", config)
+        # the true pixels, with those without depth; the sensor's stray points are off
+        mask, measured = np.asarray(hidden.mask), (mine & (sc.depth > 0)).sum()
+        assert (mine & ~mask).sum() <= 0.01 * seen[k] and (mask & ~mine).sum() <= 0.01 * seen[k]
+        assert 0.98 * measured <= len(hidden.points) <= measured
+        occ = (np.asarray(hidden.depth) > 0) & ~mine
+        cover = sil & (sc.truth == 1 - k) & (sc.depth > 0)
+        assert np.array_equal(occ, cover)
+        rule = cb.truth_observation(sc, k, table, sil, "rule", config)
+        rule_occ = (np.asarray(rule.depth) > 0) & ~mine
+        if k == back:
+            assert occ.sum() > 100
+            assert np.array_equal(rule_occ, (sc.truth == front) & (sc.depth > 0))
+        else:
+            assert not occ.any() and not rule_occ.any()
+
+
+def test_symmetry_rows_with_truth_count_the_same_objects():
+    # The perfect-perception rows pair the same objects with the alone ones, and the buckets of
+    # the hidden share hold every object once.
+    from symjax import configs
+    from symjax.perception import clutter_benchmark as cb
+    from symjax.perception.synthetic import clutter_scene
+
+    scenes = [("front_back", clutter_scene(("box", "can"), 0, "front_back"))]
+    row = cb.symmetry_rows(scenes, configs.load("clutter").segmentation, truth=True)
+    n = row["objects"]
+    assert n == 2
+    assert sum(b[0] for b in row["by_hidden"].values()) == n
+    assert sum(b[2] for b in row["by_hidden"].values()) == round(row["plane_ok_alone"] * n)
+    for name in ("truth_masks", "truth_masks_and_occluders"):
+        diff = round((row[f"plane_ok_{name}"] - row["plane_ok_alone"]) * n)
+        assert diff == row[f"right_only_{name}"] - row[f"right_only_alone_{name}"]
+        assert 0.0 <= row[f"mcnemar_p_{name}"] <= 1.0
+    # the box in front shows all of itself, the box hides a fifth of the can behind it
+    assert [b[0] for b in row["by_hidden"].values()] == [1, 0, 1, 0]
+
+
 def test_mcnemar_p_keeps_small_values():
     # The held-out symmetry row's 4 against 35 discordant pairs: three decimals printed 0.0.
     from scipy.stats import binomtest

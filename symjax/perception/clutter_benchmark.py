@@ -22,6 +22,7 @@ __all__ = [
     "scan_scenes",
     "score_scenes",
     "symmetry_rows",
+    "truth_observation",
 ]
 
 PAIRS = (("box", "can"), ("can", "can"), ("bottle", "box"))
@@ -175,18 +176,74 @@ def mcnemar_p(b: int, c: int) -> float:
     return float(f"{binomtest(b, b + c, 0.5).pvalue:.3g}") if b + c else 1.0
 
 
-def symmetry_rows(scenes, config: SegmentationConfig) -> dict:
+#: Buckets of the share of an object's silhouette that its neighbours hide (from the truth).
+HIDDEN_BUCKETS = ((0.0, 0.02), (0.02, 0.15), (0.15, 0.35), (0.35, 1.0))
+
+
+def truth_observation(
+    scene: SyntheticScene, k: int, table, silhouette, occluders: str, config: SegmentationConfig
+):
+    """Object ``k`` of a clutter scene as a perfect segmentation would give it: its true visible
+    pixels as mask (with those without depth) and points, and as occluders (Eq. 3) either the
+    neighbours that the segmentation's rule says are in front (``"rule"``,
+    :func:`symjax.perception.object_info.occluder_depth`) or exactly the neighbours' pixels that
+    cover the object's ``silhouette`` (``"hidden"``: (H, W) bool, the object rendered alone).
+    ``config`` gives the outlier removal and the mask's fill, as in the segmentation.
+
+    Separated objects measured against these two tell what the segmentation's masks and its
+    occluder rule cost the symmetry search, and what is left with perfect perception.
+    """
+    import dataclasses
+
+    from scipy.ndimage import find_objects
+
+    from symjax.observation import Observation, fill_mask
+    from symjax.perception.clusters import grid_outliers
+    from symjax.perception.depth_pixels import pixel_rays_of
+    from symjax.perception.object_info import _relations, occluder_depth
+
+    depth = np.asarray(scene.depth, np.float32)
+    labels = np.asarray(scene.truth, np.int32)
+    rays = pixel_rays_of(scene.camera)
+    # As the segmentation does: the sensor's stray points off (statistical outliers), and the
+    # object's pixels without depth in its mask (the segmentation claims them).
+    stray = grid_outliers(depth, rays, np.where(depth > 0, labels, -1), config)
+    seen = (labels == k) & (depth > 0) & ~stray
+    mask = fill_mask((labels == k) & ~stray, config.mask_fill) | seen
+    T = np.asarray(scene.camera.T_world_cam, np.float64)
+    cam = rays[seen] * depth[seen][:, None]
+    obs = Observation.create(cam @ T[:3, :3].T + T[:3, 3], scene.camera, table, mask, depth * seen)
+    if occluders == "hidden":
+        occ = np.where(silhouette & (labels >= 0) & ~mask, depth, np.float32(0.0))
+    else:
+        boxes = find_objects(labels + 1)
+        _, front = _relations(labels, depth, k, boxes[k], config)
+        occ = occluder_depth(labels, depth, front, boxes)
+    return dataclasses.replace(obs, depth=np.where(mask, depth, occ).astype(np.float32))
+
+
+def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symmetry=None) -> dict:
     """Share of separated objects (IoU >= 0.85) whose symmetry plane is within 10 deg and 10 mm
     of the truth, and the same for each of them segmented from a frame where it stands alone.
 
     The two shares are paired (the same objects): also the objects right only separated and
     only alone, and the exact two-sided McNemar p-value of that difference (the binomial test
-    of the discordant pairs), which says whether the two rates differ beyond chance.
+    of the discordant pairs), which says whether the two rates differ beyond chance. The
+    objects are also counted by the share of their silhouette that the neighbours hide
+    (``by_hidden``: objects, right separated, right alone).
+
+    With ``truth``, the same objects also as a perfect segmentation would give them
+    (:func:`truth_observation`): the true masks with the segmentation's occluder rule, and the
+    true masks with the true occluders, each against the objects alone. ``symmetry`` is the
+    search's :class:`symjax.symmetry.SymmetryConfig` (None = the default).
     """
     from symjax.perception.segmentation import segment
     from symjax.symmetry import search
 
-    good_sep = good_alone = n = sep_only = alone_only = 0
+    kinds = ("separated", "truth_masks", "truth_masks_and_occluders")
+    kinds = kinds if truth else kinds[:1]
+    ok = {name: [] for name in (*kinds, "alone")}
+    buckets = {f"{lo:.2f}-{hi:.2f}": [0, 0, 0] for lo, hi in HIDDEN_BUCKETS}
     for _, sc in scenes:
         res = segment(sc.depth, sc.camera, config)
         ious, match = match_ious(sc.truth, res)
@@ -195,25 +252,36 @@ def symmetry_rows(scenes, config: SegmentationConfig) -> dict:
             solo = segment(alone.depth, alone.camera, config)
             if len(solo) != 1:
                 continue
-            n += 1
-            ok = []
-            for obs in (res.objects[match[k]], solo.objects[0]):
-                out = search(obs)
+            obs = {"separated": res.objects[match[k]], "alone": solo.objects[0]}
+            silhouette = alone.truth >= 0
+            if truth:
+                for name, how in (("truth_masks", "rule"), ("truth_masks_and_occluders", "hidden")):
+                    obs[name] = truth_observation(sc, int(k), res.table, silhouette, how, config)
+            for name, o in obs.items():
+                out = search(o, symmetry)
                 deg, dist = plane_error(sc, int(k), out.normal, out.offset)
-                ok.append(deg <= 10.0 and dist <= 0.010)
-            good_sep += ok[0]
-            good_alone += ok[1]
-            sep_only += ok[0] and not ok[1]
-            alone_only += ok[1] and not ok[0]
-    return {
-        "objects": n,
-        "plane_ok_separated": round(good_sep / max(n, 1), 3),
-        "plane_ok_alone": round(good_alone / max(n, 1), 3),
-        "right_only_separated": sep_only,
-        "right_only_alone": alone_only,
-        "mcnemar_p": mcnemar_p(sep_only, alone_only),
-        "criterion": "within 10 deg and 10 mm of a true mirror plane",
-    }
+                ok[name].append(deg <= 10.0 and dist <= 0.010)
+            hidden = 1.0 - (sc.truth == k).sum() / max(int(silhouette.sum()), 1)
+            for (lo, hi), b in zip(HIDDEN_BUCKETS, buckets.values(), strict=True):
+                if lo <= hidden < hi or (hi == 1.0 and hidden >= hi):
+                    b[0] += 1
+                    b[1] += ok["separated"][-1]
+                    b[2] += ok["alone"][-1]
+    n = len(ok["alone"])
+    alone = np.asarray(ok["alone"], bool)
+    row = {"objects": n}
+    for name in kinds:
+        v = np.asarray(ok[name], bool)
+        tag = "" if name == "separated" else f"_{name}"
+        b, c = int((v & ~alone).sum()), int((alone & ~v).sum())
+        row[f"plane_ok_{name}"] = round(float(v.mean()) if n else 0.0, 3)
+        row[f"right_only_{name}"], row[f"right_only_alone{tag}"] = b, c
+        row[f"mcnemar_p{tag}"] = mcnemar_p(b, c)
+        if name == "separated":
+            row["plane_ok_alone"] = round(float(alone.mean()) if n else 0.0, 3)
+    row["by_hidden"] = buckets
+    row["criterion"] = "within 10 deg and 10 mm of a true mirror plane"
+    return row
 
 
 def clutter_scene_alone(scene: SyntheticScene, k: int) -> SyntheticScene:

@@ -56,6 +56,16 @@ class SymmetryConfig:
             by more than this fraction. Rotational objects (cans, cups) score all planes through
             their axis alike, and among those the paper's, perpendicular to the view, completes
             the back of the object; wrong planes score several times worse, far beyond 5%.
+        box_favour: Beyond the paper; 0 = off. When the table-projected cloud is box-like (its
+            bounding rectangle's area varies over orientations by more than
+            ``box_rectangularity`` times: 2 for a square footprint, 1 for a disc), the
+            bounding-box axis wins unless the paper's axis votes better by more than this
+            fraction (its vote is scaled by ``1 - box_favour`` instead of ``1 + start_margin``).
+            A nearly square box seen across a corner votes about as well for its diagonal,
+            the paper's axis there, as for its faces, and a few pixels of mask decide between
+            them; its faces are its symmetry planes unless it is square.
+        box_rectangularity: The ratio of the largest to the smallest bounding-rectangle area
+            over orientations above which ``box_favour`` applies.
         w_outside: Weight of E[delta_1], the squared distance (pixels^2) of mirrored points that
             fall outside the segmentation mask (Eq. 3, first term).
         w_inside: Weight of E[delta_2], the depth difference (metres) of mirrored points that fall
@@ -79,6 +89,8 @@ class SymmetryConfig:
     n_refine: int = 2
     n_chains: int = 2
     start_margin: float = 0.05
+    box_favour: float = 0.0
+    box_rectangularity: float = 1.5
     w_outside: float = 1.0
     w_inside: float = 1000.0
     depth_tolerance: float = 0.002
@@ -100,6 +112,10 @@ class SymmetryConfig:
             raise ConfigError(f"n_chains must be >= 1, got {self.n_chains}")
         if not self.start_margin >= 0.0:
             raise ConfigError(f"start_margin must be >= 0, got {self.start_margin}")
+        if not 0.0 <= self.box_favour < 1.0:
+            raise ConfigError(f"box_favour must be in [0, 1), got {self.box_favour}")
+        if not self.box_rectangularity >= 1.0:
+            raise ConfigError(f"box_rectangularity must be >= 1, got {self.box_rectangularity}")
         if not (0.0 <= self.angle_range <= math.pi / 2):
             raise ConfigError(f"angle_range must be in [0, pi/2] rad, got {self.angle_range}")
         if not self.shift_min <= self.shift_max:

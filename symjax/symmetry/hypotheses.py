@@ -97,7 +97,8 @@ def _valid_sample(valid, size: int = SAMPLE_POINTS):
 
 def _box_angle(view: ViewArrays, c, m0, side, n_sweep: int = 90):
     """Orientation (radians, relative to m0) of the minimum-area rectangle bounding the
-    table-projected cloud, by a sweep over [0, 90) deg (an edge direction is its normal)."""
+    table-projected cloud, by a sweep over [0, 90) deg (an edge direction is its normal), and
+    the ratio of the largest to that smallest area over the sweep (how box-like the cloud is)."""
     d = view.points[_valid_sample(view.valid)] - c[None, :]
     x, y = d @ m0, d @ side
     th = jnp.arange(n_sweep) * (jnp.pi / 2 / n_sweep)
@@ -107,7 +108,8 @@ def _box_angle(view: ViewArrays, c, m0, side, n_sweep: int = 90):
         b = -jnp.sin(t) * x + jnp.cos(t) * y
         return (a.max() - a.min()) * (b.max() - b.min())
 
-    return th[jnp.argmin(jax.vmap(area)(th))]
+    areas = jax.vmap(area)(th)
+    return th[jnp.argmin(areas)], areas.max() / jnp.maximum(areas.min(), 1e-12)
 
 
 def _wrap(phi):
@@ -168,7 +170,8 @@ def search_view(
         # onto itself, scores well and completes nothing behind the object.
         away = c - view.t_wc
         view_angle = jnp.arctan2(away @ side, away @ m0)
-        a0, a1 = _wrap(box := _box_angle(view, c, m0, side)), _wrap(box + jnp.pi / 2)
+        box, rectangularity = _box_angle(view, c, m0, side)
+        a0, a1 = _wrap(box), _wrap(box + jnp.pi / 2)
         d0, d1 = jnp.abs(_wrap(a0 - view_angle)), jnp.abs(_wrap(a1 - view_angle))
         starts.append(jnp.where(d0 <= d1, a0, a1))
     starts = jnp.stack(starts)
@@ -233,6 +236,9 @@ def search_view(
         r_shifts.append(sh)
         r_votes.append(vo)
     handicap = jnp.where(chain_start > 0, 1.0 + config.start_margin, 1.0)
+    if config.init == "eigen+box" and config.box_favour > 0.0:
+        favour = jnp.where(chain_start > 0, 1.0 - config.box_favour, 1.0)
+        handicap = jnp.where(rectangularity > config.box_rectangularity, favour, handicap)
     win = jnp.argmin(chains[2] * handicap)
     best_a, best_s, best_vote = chains[0][win], chains[1][win], chains[2][win]
     r_angles = [a[win] for a in r_angles]
