@@ -176,8 +176,8 @@ def mcnemar_p(b: int, c: int) -> float:
     return float(f"{binomtest(b, b + c, 0.5).pvalue:.3g}") if b + c else 1.0
 
 
-#: Buckets of the share of an object's silhouette that its neighbours hide (from the truth).
-HIDDEN_BUCKETS = ((0.0, 0.02), (0.02, 0.15), (0.15, 0.35), (0.35, 1.0))
+#: Inner edges of the buckets of the share of an object's silhouette that its neighbours hide.
+HIDDEN_EDGES = (0.02, 0.15, 0.35)
 
 
 def truth_observation(
@@ -243,7 +243,8 @@ def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symme
     kinds = ("separated", "truth_masks", "truth_masks_and_occluders")
     kinds = kinds if truth else kinds[:1]
     ok = {name: [] for name in (*kinds, "alone")}
-    buckets = {f"{lo:.2f}-{hi:.2f}": [0, 0, 0] for lo, hi in HIDDEN_BUCKETS}
+    bounds = (0.0, *HIDDEN_EDGES, 1.0)
+    buckets = {f"{a:.2f}-{b:.2f}": [0, 0, 0] for a, b in zip(bounds[:-1], bounds[1:], strict=True)}
     for _, sc in scenes:
         res = segment(sc.depth, sc.camera, config)
         ious, match = match_ious(sc.truth, res)
@@ -262,11 +263,10 @@ def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symme
                 deg, dist = plane_error(sc, int(k), out.normal, out.offset)
                 ok[name].append(deg <= 10.0 and dist <= 0.010)
             hidden = 1.0 - (sc.truth == k).sum() / max(int(silhouette.sum()), 1)
-            for (lo, hi), b in zip(HIDDEN_BUCKETS, buckets.values(), strict=True):
-                if lo <= hidden < hi or (hi == 1.0 and hidden >= hi):
-                    b[0] += 1
-                    b[1] += ok["separated"][-1]
-                    b[2] += ok["alone"][-1]
+            b = list(buckets.values())[int(np.searchsorted(HIDDEN_EDGES, hidden, "right"))]
+            b[0] += 1
+            b[1] += ok["separated"][-1]
+            b[2] += ok["alone"][-1]
     n = len(ok["alone"])
     alone = np.asarray(ok["alone"], bool)
     row = {"objects": n}
