@@ -197,6 +197,7 @@ def truth_observation(
 
     from scipy.ndimage import find_objects
 
+    from symjax.geometry import backproject
     from symjax.observation import Observation, fill_mask
     from symjax.perception.clusters import grid_outliers
     from symjax.perception.depth_pixels import pixel_rays_of
@@ -210,9 +211,9 @@ def truth_observation(
     stray = grid_outliers(depth, rays, np.where(depth > 0, labels, -1), config)
     seen = (labels == k) & (depth > 0) & ~stray
     mask = fill_mask((labels == k) & ~stray, config.mask_fill) | seen
-    T = np.asarray(scene.camera.T_world_cam, np.float64)
-    cam = rays[seen] * depth[seen][:, None]
-    obs = Observation.create(cam @ T[:3, :3].T + T[:3, 3], scene.camera, table, mask, depth * seen)
+    cam = scene.camera
+    points = backproject(depth, cam.K, cam.T_world_cam, seen)
+    obs = Observation.create(points, cam, table, mask, depth * seen)
     if occluders == "hidden":
         occ = np.where(silhouette & (labels >= 0) & ~mask, depth, np.float32(0.0))
     else:
