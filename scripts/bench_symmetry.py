@@ -80,7 +80,9 @@ def _numpy_reference(obs: Observation, result, cfg: SymmetryConfig) -> tuple[flo
     dt = time.perf_counter() - t0
     ref = cfg.w_outside * out + cfg.w_inside * inside
     got = np.asarray(result.votes, np.float64).reshape(-1)
-    rel = float(np.max(np.abs(got - ref) / np.maximum(np.abs(ref), 1e-9)))
+    # Planes the search does not score report inf (a round footprint's other rectangle axis).
+    scored = np.isfinite(got)
+    rel = float(np.max(np.abs(got - ref)[scored] / np.maximum(np.abs(ref[scored]), 1e-9)))
     return dt, rel
 
 

@@ -164,6 +164,7 @@ def search_view(
     unit_s = jnp.linspace(0.0, 1.0, S) if S > 1 else jnp.full(1, 0.5)
 
     starts = [jnp.float32(0.0)]
+    fans = [jnp.float32(1.0)]
     if config.init == "eigen+box":
         # Of the rectangle's two axes keep, as Eq. 1 does among the eigenvectors, the plane whose
         # normal is closest to the viewing direction: the other one maps the visible surface
@@ -174,13 +175,25 @@ def search_view(
         a0, a1 = _wrap(box), _wrap(box + jnp.pi / 2)
         d0, d1 = jnp.abs(_wrap(a0 - view_angle)), jnp.abs(_wrap(a1 - view_angle))
         starts.append(jnp.where(d0 <= d1, a0, a1))
+        box_like = rectangularity > config.box_rectangularity
+        fans.append(jnp.where(box_like, jnp.float32(config.box_fan), jnp.float32(1.0)))
+        if config.box_axes == 2:
+            starts.append(jnp.where(d0 <= d1, a1, a0))
+            fans.append(fans[-1])
     starts = jnp.stack(starts)
+    fans = jnp.stack(fans)
 
     # Level 0: the paper's fan of n x m hypotheses around every initial axis, one vmap.
-    angles0 = starts[:, None] + (unit_a * config.angle_range)[None, :]  # (n_starts, A)
+    angles0 = starts[:, None] + (unit_a * config.angle_range)[None, :] * fans[:, None]
     shifts0 = (config.shift_min + unit_s * (config.shift_max - config.shift_min)) * L  # (S,)
     normals, offsets = _plane_grid(n, m0, c, angles0.reshape(-1), shifts0)
     out0, in0, votes0 = score_planes(view, normals, offsets, config, gate, chunk_planes, occluded)
+    if config.init == "eigen+box" and config.box_axes == 2:
+        # A round footprint has no faces: its rectangle's other axis is the plane that maps the
+        # visible surface onto itself, which votes best and completes nothing. Not a candidate,
+        # so not scored (the fallback and the K shapes read this grid).
+        votes0 = votes0.reshape(-1, A * S)
+        votes0 = votes0.at[2].set(jnp.where(box_like, votes0[2], jnp.inf)).reshape(-1)
     k = jnp.argmin(votes0)
     ks, rem = k // (A * S), k % (A * S)
     ia, js = rem // S, rem % S
@@ -199,7 +212,7 @@ def search_view(
         best_vote[rows, top].reshape(-1),
     )
     chain_start = jnp.repeat(jnp.arange(per_angle.shape[0]), n_chains)
-    da = config.angle_range / max((A - 1) / 2, 1)
+    da = config.angle_range / max((A - 1) / 2, 1) * fans[chain_start][:, None]  # (C, 1)
     ds = (config.shift_max - config.shift_min) * L / max(S - 1, 1)
 
     def refine_level(chains, da, ds):
@@ -238,8 +251,13 @@ def search_view(
     handicap = jnp.where(chain_start > 0, 1.0 + config.start_margin, 1.0)
     if config.init == "eigen+box" and config.box_favour > 0.0:
         favour = jnp.where(chain_start > 0, 1.0 - config.box_favour, 1.0)
-        handicap = jnp.where(rectangularity > config.box_rectangularity, favour, handicap)
-    win = jnp.argmin(chains[2] * handicap)
+        handicap = jnp.where(box_like, favour, handicap)
+    score = chains[2] * handicap
+    if config.init == "eigen+box" and config.box_axes == 2:
+        other = chain_start == 2
+        score = jnp.where(other, chains[2] * (1.0 - config.other_axis_favour), score)
+        score = jnp.where(other & ~box_like, jnp.inf, score)  # refined from unscored planes
+    win = jnp.argmin(score)
     best_a, best_s, best_vote = chains[0][win], chains[1][win], chains[2][win]
     r_angles = [a[win] for a in r_angles]
     r_shifts = [a[win] for a in r_shifts]
