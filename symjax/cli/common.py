@@ -20,8 +20,9 @@ class PresetArgs:
     """The option every command has; a command's own options extend it.
 
     Attributes:
-        config: Preset name (ci, cycle, default, kth, paper, study, uji) or the path of a TOML
-            file in the same layout; the options below default to its values and override them.
+        config: Preset name (ci, clutter, cycle, default, gpu, kth, paper, study, study_tcp,
+            uji: the files in ``configs/``) or the path of a TOML file in the same layout; the
+            options below default to its values and override them.
     """
 
     config: str = "default"
