@@ -255,8 +255,9 @@ def search_view(
     score = chains[2] * handicap
     if config.init == "eigen+box" and config.box_axes == 2:
         other = chain_start == 2
-        score = jnp.where(other, chains[2] * (1.0 - config.other_axis_favour), score)
-        score = jnp.where(other & ~box_like, jnp.inf, score)  # refined from unscored planes
+        handicap = jnp.where(other, 1.0 - config.other_axis_favour, handicap)
+        # A round footprint's other-axis chains were refined from its unscored planes.
+        score = jnp.where(other & ~box_like, jnp.inf, chains[2] * handicap)
     win = jnp.argmin(score)
     best_a, best_s, best_vote = chains[0][win], chains[1][win], chains[2][win]
     r_angles = [a[win] for a in r_angles]
