@@ -19,10 +19,12 @@ with the true occluders too); and the time of a 640x480 and a 1280x720 clutter f
 ``--held-out-scenes 180`` also the clutter scenes drawn after the 270 that the segmentation's
 rules were made on (``symjax.perception.clutter_benchmark.held_out_scenes``); with
 ``--fresh-scenes 270`` the scenes drawn from seed 10,000 on (``fresh_scenes``), a second sample;
-with ``--symmetry-held-out`` also the symmetry row over the held-out scenes.
+with ``--symmetry-held-out`` also the symmetry row over the held-out scenes, and with
+``--symmetry-fresh`` over the fresh ones.
 
 Usage: ``python scripts/bench_perception.py [--repeats 20] [--clutter-scenes 30]
-[--held-out-scenes 180 [--symmetry-held-out]] [--fresh-scenes 270 [--fresh-seed 10000]]``
+[--held-out-scenes 180 [--symmetry-held-out]] [--fresh-scenes 270 [--fresh-seed 10000]
+[--symmetry-fresh]]``
 """
 
 from __future__ import annotations
@@ -89,7 +91,8 @@ def _clutter_rows(args, default) -> list[dict]:
     scenes = benchmark_scenes(args.clutter_scenes)
     held_out = held_out_scenes(args.held_out_scenes) if args.held_out_scenes else []
     held_only = list(held_out)
-    held_out += fresh_scenes(args.fresh_scenes, args.fresh_seed)
+    fresh = fresh_scenes(args.fresh_scenes, args.fresh_seed)
+    held_out += fresh
     t = time.perf_counter()
     acc = score_scenes(scenes, cfg)
     run_s = time.perf_counter() - t
@@ -122,6 +125,11 @@ def _clutter_rows(args, default) -> list[dict]:
         # Five times the benchmark's objects, none of them looked at for the search's settings.
         row = {"case": "clutter_symmetry_separated_vs_alone_held_out", "scenes": len(held_only)}
         rows.append(row | symmetry_rows(held_only, cfg, True, sym))
+        print(json.dumps(rows[-1]), flush=True)
+    if args.symmetry_fresh and fresh:
+        # A sample that no setting of the search or the segmentation was ever chosen on.
+        row = {"case": "clutter_symmetry_separated_vs_alone_fresh", "scenes": len(fresh)}
+        rows.append(row | symmetry_rows(fresh, cfg, True, sym))
         print(json.dumps(rows[-1]), flush=True)
     # The timed frame: the tenth clutter scene (the last one when the benchmark had ten), at
     # both resolutions, so the speed rows stay comparable with earlier runs.
@@ -186,6 +194,10 @@ class Args(PresetArgs):
     """Also the symmetry row over the held-out scenes
     (``clutter_symmetry_separated_vs_alone_held_out``; 180 scenes, about 1,100 objects, take
     about 10 minutes on 2 cores)."""
+    symmetry_fresh: bool = False
+    """Also the symmetry row over the fresh scenes
+    (``clutter_symmetry_separated_vs_alone_fresh``): the same comparison on scenes that no
+    setting was chosen on."""
 
 
 def main(argv=None) -> int:
@@ -194,6 +206,10 @@ def main(argv=None) -> int:
         from symjax.errors import ConfigError
 
         raise ConfigError("--symmetry-held-out needs held-out scenes: add --held-out-scenes 180")
+    if args.symmetry_fresh and not args.fresh_scenes:
+        from symjax.errors import ConfigError
+
+        raise ConfigError("--symmetry-fresh needs fresh scenes: add --fresh-scenes 270")
     if args.fresh_scenes:  # a bad count or seed is told now, not after the timed cases
         from symjax.perception.clutter_benchmark import fresh_scenes
 

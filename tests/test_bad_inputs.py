@@ -63,7 +63,7 @@ from symjax.errors import (
 from symjax.execution import ExecutionConfig
 from symjax.perception.clutter_benchmark import fresh_scenes
 from symjax.perception.synthetic import clutter_scene
-from symjax.symmetry import SymmetryConfig, search, search_batch
+from symjax.symmetry import SymmetryConfig, search, search_batch, search_scene
 
 VIEW, _ = primitive_view("box", math.radians(30), noise=0.001, seed=0)
 CAM = VIEW.camera
@@ -334,6 +334,7 @@ CASES = [
     ("sym-box-rectangularity", lambda d: SymmetryConfig(box_rectangularity=0.5), ConfigError, ["box_rectangularity", ">= 1", "0.5"]),
     ("sym-box-fan", lambda d: SymmetryConfig(box_fan=1.5), ConfigError, ["box_fan", "[0, 1]", "1.5"]),
     ("sym-box-axes", lambda d: SymmetryConfig(box_axes=3), ConfigError, ["box_axes", "1 or 2", "3"]),
+    ("sym-neighbour-volumes", lambda d: SymmetryConfig(neighbour_volumes="yes"), ConfigError, ["neighbour_volumes", "'yes'", "true or false"]),
     ("sym-other-axis-favour", lambda d: SymmetryConfig(other_axis_favour=1.0), ConfigError, ["other_axis_favour", "[0, 1)", "1.0"]),
     ("poisson-depth", lambda d: surface.PoissonConfig(depth=9), ConfigError, ["depth", "[2, 8]", "9"]),
     ("poisson-depth-float", lambda d: surface.PoissonConfig(depth=7.0), ConfigError, ["depth = 7.0", "an integer"]),
@@ -366,6 +367,8 @@ CASES = [
     ("search-one-point", lambda d: search(_same_point_view()), DegenerateGeometryError, ["0 mm on the table", "0.1 mm"]),
     ("search-depth-beyond-1km", lambda d: search(_far_depth_view()), InvalidInputError, ["2000 m", "below 1000 m"]),
     ("search-batch-empty", lambda d: search_batch([]), InvalidInputError, ["no observations"]),
+    ("search-scene-sizes", lambda d: search_scene([VIEW, primitive_view("box", 0.3, width=320, height=240)[0]], SymmetryConfig(neighbour_volumes=True)), InvalidInputError, ["one frame", "(240, 320)", "(480, 640)"]),
+    ("search-scene-empty", lambda d: search_scene([], SymmetryConfig(neighbour_volumes=True)), InvalidInputError, ["no observations"]),
     ("search-batch-single", lambda d: search_batch(VIEW), InvalidInputError, ["sequence", "search()"]),
     ("search-batch-item", lambda d: search_batch([VIEW, PTS]), InvalidInputError, ["item 1", "ndarray"]),
     ("search-batch-all-bad", lambda d: search_batch([_nan_view(), _same_point_view()]), InvalidInputError, ["view 0", "view 1", "could be searched"]),
@@ -458,6 +461,7 @@ CASES = [
     ("clutter-fresh-count", lambda d: fresh_scenes(-3, 10_000), ConfigError, ["fresh scenes", ">= 0", "-3"]),
     ("clutter-fresh-examined-seed", lambda d: fresh_scenes(5, 100), ConfigError, ["seed > 567", "seed 100"]),
     ("bench-perception-symmetry-held-out", lambda d: _script_main("bench_perception")(["--symmetry-held-out"]), ConfigError, ["--symmetry-held-out", "--held-out-scenes"]),
+    ("bench-perception-symmetry-fresh", lambda d: _script_main("bench_perception")(["--symmetry-fresh"]), ConfigError, ["--symmetry-fresh", "--fresh-scenes"]),
     ("segment-no-camera", lambda d: perception.segment(VIEW.depth), InvalidInputError, ["camera"]),
     ("segment-config", lambda d: perception.segment(PTS, config={"seed": 1}), ConfigError, ["SegmentationConfig", "dict"]),
     # --- grasp, hands, robots, decomposition -------------------------------------------------

@@ -378,6 +378,33 @@ def test_symmetry_rows_with_truth_count_the_same_objects():
     assert [b[0] for b in row["by_hidden"].values()] == [1, 0, 1, 0]
 
 
+@pytest.mark.parametrize(
+    ("half_sides", "diagonal_deg"), [((0.038, 0.037), 0.0), ((0.045, 0.038), 45.0)]
+)
+def test_plane_error_counts_a_square_boxs_diagonals(half_sides, diagonal_deg):
+    # A box square within 1 mm is its own mirror image across the planes at 45 deg to its faces;
+    # one 7 mm longer than wide is not. Its faces are mirror planes either way.
+    from types import SimpleNamespace
+
+    from symjax.perception.clutter_benchmark import plane_error
+
+    yaw = 0.3
+    quat = (np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2))
+    box = Primitive("box", (*half_sides, 0.05), (0.1, 0.2, 0.05), quat)
+    scene = SimpleNamespace(owner=[0], primitives=[box])
+
+    def error(angle):
+        n = np.array([np.cos(angle), np.sin(angle), 0.0])
+        return plane_error(scene, 0, n, float(n @ np.asarray(box.pos)) + 0.004)
+
+    for face in (yaw, yaw + np.pi / 2):
+        assert error(face) == pytest.approx((0.0, 0.004), abs=1e-6)
+    for diagonal in (yaw + np.pi / 4, yaw - np.pi / 4):
+        assert error(diagonal) == pytest.approx((diagonal_deg, 0.004), abs=1e-6)
+    # 30 deg from a face is 15 deg from a diagonal
+    assert error(yaw + np.radians(30))[0] == pytest.approx(30.0 if diagonal_deg else 15.0, abs=1e-6)
+
+
 def test_mcnemar_p_keeps_small_values():
     # The held-out symmetry row's 4 against 35 discordant pairs: three decimals printed 0.0.
     from scipy.stats import binomtest

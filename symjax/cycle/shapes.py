@@ -113,14 +113,31 @@ def predict_shapes(ts: Any, cfg: CycleConfig, truth: list | None = None) -> list
     if cfg.mode == "K":
         from symjax.completion import plausible_shapes
 
-        return plausible_shapes(ts.objects, cfg)
-    if cfg.mode in ("C", "P"):
-        make = completed_meshes if cfg.mode == "C" else baseline_meshes
-        return make(ts.objects, [ts.table] * len(ts.objects), cfg)
+        return plausible_shapes(ts.objects, cfg, _frame_search(ts.objects, cfg))
+    if cfg.mode == "C":
+        tables = [ts.table] * len(ts.objects)
+        return completed_meshes(ts.objects, tables, cfg, _frame_search(ts.objects, cfg))
+    if cfg.mode == "P":
+        return baseline_meshes(ts.objects, [ts.table] * len(ts.objects), cfg)
     return [
         m if m is not None else DegenerateGeometryError("the hypothesis is no true object")
         for m in (truth or [None] * len(ts.objects))
     ]
+
+
+def _frame_search(objects: tuple, cfg: CycleConfig) -> Any:
+    """The frame's hypotheses searched together against their neighbours' completed volumes
+    (:func:`symjax.symmetry.search_scene`) when ``cfg.symmetry.neighbour_volumes`` asks for it;
+    None otherwise, or when that batch fails (the per-view search then says which view and
+    why)."""
+    if not objects or not cfg.symmetry.neighbour_volumes:
+        return None
+    from symjax.symmetry import search_scene
+
+    try:
+        return search_scene(objects, cfg.symmetry, cfg.execution)
+    except SymjaxError:
+        return None
 
 
 def decompose_shapes(meshes: list, cfg: CycleConfig, truth: list | None = None) -> list:

@@ -151,9 +151,17 @@ def score_scenes(scenes, config: SegmentationConfig, colour: bool = False) -> di
     }
 
 
+#: A box whose footprint's half sides differ by at most this (metres) is square: mirrored across
+#: a vertical plane at 45 deg to its faces it lands within this of itself (its 90-deg turn), the
+#: search's depth tolerance, so those two planes are true mirror planes too.
+SQUARE_TOLERANCE = 0.002
+
+
 def plane_error(scene: SyntheticScene, k: int, normal, offset) -> tuple[float, float]:
     """``(deg, m)`` of a plane against object ``k``'s true mirror planes: a box's two planes
-    through its centre along its sides, any vertical plane through a can's or bottle's axis."""
+    through its centre along its sides (and the two at 45 deg to them when its footprint is
+    square within :data:`SQUARE_TOLERANCE`), any vertical plane through a can's or bottle's
+    axis."""
     i = scene.owner.index(k)
     p = scene.primitives[i]
     n = np.asarray(normal, np.float64)
@@ -162,7 +170,9 @@ def plane_error(scene: SyntheticScene, k: int, normal, offset) -> tuple[float, f
         return math.degrees(math.asin(min(1.0, abs(n[2])))), dist
     w, z = p.quat[0], p.quat[3]
     yaw = 2 * math.atan2(z, w)
-    axes = ((math.cos(yaw), math.sin(yaw), 0.0), (-math.sin(yaw), math.cos(yaw), 0.0))
+    square = abs(float(p.size[0]) - float(p.size[1])) <= SQUARE_TOLERANCE
+    turns = (0.0, 0.5, 0.25, 0.75) if square else (0.0, 0.5)
+    axes = tuple((math.cos(yaw + t * math.pi), math.sin(yaw + t * math.pi), 0.0) for t in turns)
     deg = min(math.degrees(math.acos(min(1.0, abs(float(n @ a))))) for a in axes)
     return deg, dist
 
@@ -236,11 +246,16 @@ def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symme
     With ``truth``, the same objects also as a perfect segmentation would give them
     (:func:`truth_observation`): the true masks with the segmentation's occluder rule, and the
     true masks with the true occluders, each against the objects alone. ``symmetry`` is the
-    search's :class:`symjax.symmetry.SymmetryConfig` (None = the default).
+    search's :class:`symjax.symmetry.SymmetryConfig` (None = the default). The separated objects
+    of a frame are searched together (:func:`symjax.symmetry.search_scene`: with
+    ``neighbour_volumes``, against their neighbours' completed volumes, and so are the true
+    masks with the rule's occluders).
     """
     from symjax.perception.segmentation import segment
-    from symjax.symmetry import search
+    from symjax.symmetry import SymmetryConfig, search, search_batch, search_scene
+    from symjax.symmetry.scene import back_depth, behind_neighbours
 
+    symmetry = symmetry if symmetry is not None else SymmetryConfig()
     kinds = ("separated", "truth_masks", "truth_masks_and_occluders")
     kinds = kinds if truth else kinds[:1]
     ok = {name: [] for name in (*kinds, "alone")}
@@ -249,18 +264,29 @@ def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symme
     for _, sc in scenes:
         res = segment(sc.depth, sc.camera, config)
         ious, match = match_ious(sc.truth, res)
+        if res.objects and (ious >= 0.85).any():
+            # the frame's objects searched together, as the product does (search_scene)
+            first = search_batch(res.objects, symmetry)
+            together = search_scene(res.objects, symmetry, first=first)
+            back = back_depth(res.objects, first) if symmetry.neighbour_volumes else None
         for k in np.flatnonzero(ious >= 0.85):
             alone = clutter_scene_alone(sc, int(k))
             solo = segment(alone.depth, alone.camera, config)
             if len(solo) != 1:
                 continue
-            obs = {"separated": res.objects[match[k]], "alone": solo.objects[0]}
+            obs = {"alone": solo.objects[0]}
+            found = {"separated": together[int(match[k])]}
             silhouette = alone.truth >= 0
             if truth:
-                for name, how in (("truth_masks", "rule"), ("truth_masks_and_occluders", "hidden")):
-                    obs[name] = truth_observation(sc, int(k), res.table, silhouette, how, config)
-            for name, o in obs.items():
-                out = search(o, symmetry)
+                # the true masks with the rule's occluders, as deep as the segmentation's
+                # objects' completions make them; the true occluders exactly as rendered
+                o = truth_observation(sc, int(k), res.table, silhouette, "rule", config)
+                obs["truth_masks"] = o if back is None else behind_neighbours(o, back)
+                obs["truth_masks_and_occluders"] = truth_observation(
+                    sc, int(k), res.table, silhouette, "hidden", config
+                )
+            found |= {name: search(o, symmetry) for name, o in obs.items()}
+            for name, out in found.items():
                 deg, dist = plane_error(sc, int(k), out.normal, out.offset)
                 ok[name].append(deg <= 10.0 and dist <= 0.010)
             hidden = 1.0 - (sc.truth == k).sum() / max(int(silhouette.sum()), 1)

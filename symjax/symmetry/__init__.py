@@ -2,11 +2,13 @@
 
 Modules: ``config`` (search parameters), ``view`` (a view packed for the kernels), ``scoring``
 (Eq. 3 per plane), ``hypotheses`` (Eq. 1 start, the n x m grid, refinement, Eq. 4), ``result``,
-``solver`` (the jitted entry points), ``reference`` (a numpy scorer for tests).
+``solver`` (the jitted entry points), ``scene`` (the objects of one frame searched together),
+``reference`` (a numpy scorer for tests).
 """
 
 from symjax.symmetry.config import SymmetryConfig
 from symjax.symmetry.result import SymmetryResult
+from symjax.symmetry.scene import search_scene
 from symjax.symmetry.scoring import reflect, score_planes
 from symjax.symmetry.solver import (
     complete,
@@ -29,4 +31,5 @@ __all__ = [
     "search",
     "search_batch",
     "search_or_errors",
+    "search_scene",
 ]

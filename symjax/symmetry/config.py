@@ -79,6 +79,11 @@ class SymmetryConfig:
             whose mirror image falls on them.
         other_axis_favour: With ``box_axes=2``, the other axis wins unless another start votes
             better by this fraction (its vote is scaled by ``1 - other_axis_favour``).
+        neighbour_volumes: Beyond the paper; read by :func:`symjax.symmetry.search_scene`
+            only (the objects of one frame). An object behind others is searched again with
+            each occluder pixel pushed back to the back of that occluder's own completion, so
+            that a mirrored point just behind a neighbour's visible surface, inside the
+            neighbour, contradicts the plane instead of hiding there.
         w_outside: Weight of E[delta_1], the squared distance (pixels^2) of mirrored points that
             fall outside the segmentation mask (Eq. 3, first term).
         w_inside: Weight of E[delta_2], the depth difference (metres) of mirrored points that fall
@@ -107,6 +112,7 @@ class SymmetryConfig:
     box_fan: float = 1.0
     box_axes: int = 1
     other_axis_favour: float = 0.0
+    neighbour_volumes: bool = False
     w_outside: float = 1.0
     w_inside: float = 1000.0
     depth_tolerance: float = 0.002
