@@ -369,6 +369,7 @@ CASES = [
     ("search-batch-empty", lambda d: search_batch([]), InvalidInputError, ["no observations"]),
     ("search-scene-sizes", lambda d: search_scene([VIEW, primitive_view("box", 0.3, width=320, height=240)[0]], SymmetryConfig(neighbour_volumes=True)), InvalidInputError, ["one frame", "(240, 320)", "(480, 640)"]),
     ("search-scene-empty", lambda d: search_scene([], SymmetryConfig(neighbour_volumes=True)), InvalidInputError, ["no observations"]),
+    ("search-scene-item", lambda d: search_scene([VIEW, PTS], SymmetryConfig(neighbour_volumes=True)), InvalidInputError, ["item 1", "ndarray"]),
     ("search-batch-single", lambda d: search_batch(VIEW), InvalidInputError, ["sequence", "search()"]),
     ("search-batch-item", lambda d: search_batch([VIEW, PTS]), InvalidInputError, ["item 1", "ndarray"]),
     ("search-batch-all-bad", lambda d: search_batch([_nan_view(), _same_point_view()]), InvalidInputError, ["view 0", "view 1", "could be searched"]),

@@ -34,7 +34,9 @@ def back_depth(observations: Sequence[Observation], result: SymmetryResult) -> n
     there (0 elsewhere, and on the pixels of a view whose search failed).
 
     Mirrored points are splatted on a pixel each and the image closed with a 3 x 3 maximum:
-    the mirror image of an object seen at a slant is sparser than the object.
+    the mirror image of an object seen at a slant is sparser than the object. (A far buffer
+    in numpy, not :func:`symjax.observation.render_points`: that keeps the nearest point and
+    projects with eager JAX, which compiles anew for every cloud size.)
 
     Args:
         observations: The objects of one frame (one camera, one image size).
@@ -104,7 +106,8 @@ def search_scene(
     """
     cfg = config_or_default(config, SymmetryConfig, "config")
     if cfg.neighbour_volumes and not isinstance(observations, Observation):
-        shapes = {np.shape(getattr(o, "mask", None)) for o in observations}
+        # (anything but Observations is search_batch's to refuse, with its own message)
+        shapes = {np.shape(o.mask) for o in observations if isinstance(o, Observation)}
         if len(shapes) > 1:
             raise InvalidInputError(
                 "search_scene takes the objects of one frame (one image size); got masks of "
