@@ -18,12 +18,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from symjax.errors import InvalidInputError, config_or_default
+from symjax.errors import InvalidInputError, SymjaxError, config_or_default
 from symjax.execution import ExecutionConfig
 from symjax.observation import Observation
 from symjax.symmetry.config import SymmetryConfig
 from symjax.symmetry.result import SymmetryResult
-from symjax.symmetry.solver import search_batch
+from symjax.symmetry.solver import search_batch, stack_results
 
 __all__ = ["back_depth", "behind_neighbours", "search_scene"]
 
@@ -117,8 +117,32 @@ def search_scene(
     if not cfg.neighbour_volumes:
         return result
     obs = list(observations)
-    occluded = [bool((~np.asarray(o.mask, bool) & (np.asarray(o.depth) > 0)).any()) for o in obs]
-    if not any(occluded):
+    again = [i for i, o in enumerate(obs) if _has_occluders(o)]
+    if not again:
         return result
     back = back_depth(obs, result)
-    return search_batch([behind_neighbours(o, back) for o in obs], cfg, execution)
+    # Only the views with occluders change: the others keep their first search.
+    errors = [None if ok else result.errors[i] for i, ok in enumerate(result.ok)]
+    single = {i: result[i] for i, ok in enumerate(result.ok) if ok and i not in again}
+    try:
+        second = search_batch([behind_neighbours(obs[i], back) for i in again], cfg, execution)
+    except SymjaxError as e:  # none of them could be searched again
+        second = None
+        for i in again:
+            errors[i] = e
+    if second is not None:
+        for j, i in enumerate(again):
+            errors[i] = None if second.ok[j] else second.errors[j]
+            if second.ok[j]:
+                single[i] = second[j]
+    if not single:
+        raise InvalidInputError(
+            "no view of the frame has a plane: "
+            + "; ".join(f"view {i}: {e}" for i, e in enumerate(errors) if e is not None)
+        )
+    return stack_results(single, errors)
+
+
+def _has_occluders(obs: Observation) -> bool:
+    """Whether the observation has occluder pixels (depth outside its mask)."""
+    return bool((~np.asarray(obs.mask, bool) & (np.asarray(obs.depth) > 0)).any())

@@ -223,9 +223,16 @@ def search_batch(
             "no view of the batch has a plane: "
             + "; ".join(f"view {i}: {e}" for i, e in enumerate(errors) if e is not None)
         )
+    return stack_results(single, errors)
+
+
+def stack_results(single: dict, errors: Sequence) -> SymmetryResult:
+    """A batched result of single-view results: ``single`` maps view index to its host
+    :class:`SymmetryResult` (at least one), ``errors`` (one per view) says why the others have
+    none. Point arrays are padded to the longest view's."""
     n = max(int(np.shape(r.points)[0]) for r in single.values())
     template = next(iter(single.values()))
-    rows = [_fit(single.get(i), template, n) for i in range(len(observations))]
+    rows = [_fit(single.get(i), template, n) for i in range(len(errors))]
     stacked = jax.tree_util.tree_map(lambda *xs: np.stack(xs), *rows)
     return dataclasses.replace(
         stacked, errors=tuple(errors) if any(e is not None for e in errors) else None
