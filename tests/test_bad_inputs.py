@@ -447,6 +447,8 @@ CASES = [
     ("segmentation-claim-dropouts-type", lambda d: perception.SegmentationConfig(claim_dropouts_px=2.5), ConfigError, ["claim_dropouts_px", "2.5"]),
     ("segmentation-split-bridges", lambda d: perception.SegmentationConfig(split_bridges_px=-2), ConfigError, ["split_bridges_px", ">= 0", "-2"]),
     ("segmentation-split-bridges-type", lambda d: perception.SegmentationConfig(split_bridges_px=1.5), ConfigError, ["split_bridges_px", "1.5"]),
+    ("segmentation-fragments", lambda d: perception.SegmentationConfig(fragment_px=-2), ConfigError, ["fragment_px", ">= 0", "-2"]),
+    ("segmentation-fragments-type", lambda d: perception.SegmentationConfig(fragment_px=1.5), ConfigError, ["fragment_px", "1.5"]),
     ("segmentation-round-margin", lambda d: perception.SegmentationConfig(round_margin=-0.004), ConfigError, ["round_margin", ">= 0", "-0.004"]),
     ("segmentation-round-margin-nan", lambda d: perception.SegmentationConfig(round_margin=float("nan")), ConfigError, ["round_margin", "nan"]),
     ("segmentation-halves-extent", lambda d: perception.SegmentationConfig(halves_extent=-0.15), ConfigError, ["halves_extent", ">= 0", "-0.15"]),

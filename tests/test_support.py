@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from _pixel_pairs import pixel_pairs
@@ -186,7 +188,8 @@ def test_a_hidden_neck_stands_on_the_arc_of_its_shoulder(scene, monkeypatch):
 
     kinds, seed, bottle, colour = scene
     sc = clutter_scene(kinds, seed=seed)
-    config = configs.load("clutter").segmentation
+    # The share's own effect: in scene 221 the fragments (fragment_px) keep the bottle whole too.
+    config = dataclasses.replace(configs.load("clutter").segmentation, fragment_px=0)
     # The shoulder's body strip under it would join it too (``_UNDER``): the share alone here.
     monkeypatch.setattr(support, "_UNDER", 0.0)
     for share, want in ((0.75, True), (0.8, False)):
@@ -262,7 +265,7 @@ def test_a_hidden_bottles_top_does_not_join_the_box_it_meets_from_above(
     # behind a can or a box shows its shoulder and neck, narrow as cut, meeting the box's top
     # from above without a depth step; it joined the box (IoU 0) although the box stands in
     # front of it, not under it. Without the footprint test (``_UNDER`` unbounded) it does so
-    # again.
+    # again (measured without the fragments, which in scene 52 keep a piece off the box too).
     import symjax.perception.support as support
     from symjax import configs
     from symjax.perception import segment
@@ -275,5 +278,6 @@ def test_a_hidden_bottles_top_does_not_join_the_box_it_meets_from_above(
     ious, _ = match_ious(sc.truth, result)
     assert len(result) == len(kinds) and ious.min() >= 0.85, ious
     monkeypatch.setattr(support, "_UNDER", np.inf)
+    config = dataclasses.replace(config, fragment_px=0)
     ious, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, config))
     assert ious[bottle] < 0.5 and ious[box] < 0.85, ious

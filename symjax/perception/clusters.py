@@ -12,6 +12,7 @@ import numpy as np
 
 from symjax.perception.bridges import grow_cores, rejoin_smooth, thin_bridges
 from symjax.perception.config import SegmentationConfig
+from symjax.perception.fragments import fragment_labels
 from symjax.perception.level_tops import level_top_waists
 
 __all__ = [
@@ -39,7 +40,8 @@ def image_clusters(
     colour: np.ndarray | None = None,
     colour_crease: np.ndarray | None = None,
     concavity: np.ndarray | None = None,
-) -> np.ndarray:
+    with_fragments: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray | None]:
     """Labels object pixels by connectivity on the image grid.
 
     Pixels whose 4-neighbour is nearer by more than the depth jump are cut first (they are the
@@ -48,7 +50,10 @@ def image_clusters(
     reattached afterwards to the neighbouring cluster with the closest depth, if any is within
     the jump. A component is an object when at least
     ``config.min_cluster_points`` of its pixels are ``config.seed_height`` above the table
-    (hysteresis: components grow down to ``grow_height`` through ``candidate``).
+    (hysteresis: components grow down to ``grow_height`` through ``candidate``). With creases
+    and ``config.fragment_px``, smaller components of at least that many pixels are labelled
+    too, after the objects, and take their share of the cut pixels
+    (:mod:`symjax.perception.fragments`).
 
     Args:
         depth: (H, W) metres, 0 = none.
@@ -65,9 +70,13 @@ def image_clusters(
         concavity: (H, W) the concavity that ``crease`` thresholds
             (:func:`symjax.perception.creases.crease_concavity`): parts split at a bridge are
             joined back unless they meet across a crease or a step; None = steps alone.
+        with_fragments: Also return the fragments' pixels.
 
     Returns:
-        int32 (H, W) labels: 0..K-1 objects, ordered by size (largest first); -1 elsewhere.
+        int32 (H, W) labels: 0..K-1 objects, ordered by size (largest first), then the
+        fragments; -1 elsewhere. With ``with_fragments``, ``(labels, fragment)``: fragment the
+        (H, W) bool pixels the fragments hold, or None without fragments (the caller drops
+        those that join no object, :func:`symjax.perception.fragments.drop_fragments`).
     """
     import cv2
 
@@ -100,6 +109,9 @@ def image_clusters(
     remap = np.full(n, -1, np.int32)
     remap[order] = np.arange(len(order), dtype=np.int32)
     labels = remap[lab]
+    n_objects = len(order)
+    if crease is not None and config.fragment_px > 0:
+        labels = fragment_labels(lab, remap, size, n_objects, config.fragment_px)
     if rim is not None and rim.any():
         labels = grow_cores(labels, rim, component, colour_crease)
         # Rim pixels no core reached are reattached as cut pixels are; the others are done.
@@ -155,9 +167,10 @@ def image_clusters(
             lab[idx[fr[done]]] = nl[rows, pick][done]
             alive = np.delete(alive, front[done])
     labels = lab.reshape(labels.shape[0] + 2, Wp)[1:-1, 1:-1]
+    fragment = labels >= n_objects if labels.max() >= n_objects else None
     if component is not None and component.any():
         labels = rejoin_smooth(labels, component, depth, concavity, config, colour_crease)
-    return labels
+    return (labels, fragment) if with_fragments else labels
 
 
 def neighbour_distances(depth: np.ndarray, rays: np.ndarray) -> dict:

@@ -103,6 +103,11 @@ class SegmentationConfig:
             they meet, when both pieces stand on the table or the cut is at most three radii
             long: two touching objects of one height meet level there, the farther one perhaps
             hidden below its top (:mod:`symjax.perception.level_tops`).
+        fragment_px: Pixels; 0 = off. With creases, a piece of surface that they cut off with
+            too few seed pixels to be an object but at least this many pixels is a part of its
+            own: it takes its share of the cut pixels around it and is dropped only if the joins
+            give it to no object (:mod:`symjax.perception.fragments`), so that a strip of a
+            bottle seen between two nearer cans no longer grows into the box behind it.
         split_bridges_px: A cluster that erosion by a disc of this radius (pixels) breaks into
             two or more cores of ``min_cluster_points`` seed pixels is split there: two touching
             objects joined through a few pixels where the crease and the depth step both missed
@@ -148,6 +153,7 @@ class SegmentationConfig:
     mask_fill: str = "close"
     claim_dropouts_px: int = 0
     split_bridges_px: int = 0
+    fragment_px: int = 0
     round_margin: float = 0.0
     round_residual: float = 0.001
     halves_extent: float = 0.0
@@ -234,6 +240,8 @@ class SegmentationConfig:
             raise ConfigError(
                 f"level_top_px must be >= 0 pixels (0 = off), got {self.level_top_px}"
             )
+        if self.fragment_px < 0:
+            raise ConfigError(f"fragment_px must be >= 0 pixels (0 = off), got {self.fragment_px}")
         if self.split_bridges_px < 0:
             raise ConfigError(
                 f"split_bridges_px must be >= 0 pixels (0 = off), got {self.split_bridges_px}"

@@ -36,6 +36,7 @@ from symjax.perception.depth_pixels import (
 )
 from symjax.perception.dropouts import claim_dropouts
 from symjax.perception.footprint import table_footprint
+from symjax.perception.fragments import drop_fragments
 from symjax.perception.object_info import (
     EMPTY_TABLE,
     ObjectInfo,
@@ -159,7 +160,9 @@ def _segment_depth(
                 crease = crease_mask(kappa, cfg)
             colour = None if colour is None else colour.result()
             cut = None if colour is None else colour_creases(colour, kappa, cfg)
-            lab = image_clusters(conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa)
+            lab, fragment = image_clusters(
+                conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa, True
+            )
             if kappa is not None and lab.max() > 0:
                 foot = table_footprint(lab, rays[sl], conn[sl], T, n)
                 if cfg.round_objects:  # (before the joins: they give a strip back)
@@ -170,6 +173,8 @@ def _segment_depth(
                 )
                 if cfg.round_margin > 0:  # (joins relabel parts, not pixels: foot holds)
                     lab = settle_round_parts(lab, foot, height[sl], conn[sl], cfg, smooth)
+            if fragment is not None:  # (those that joined no object)
+                lab = drop_fragments(lab, fragment)
             lab[~valid[sl]] = -1
             lab[grid_outliers(depth[sl], rays[sl], lab, cfg, distances.result())] = -1
         labels[sl] = lab
