@@ -74,7 +74,8 @@ def image_clusters(
 
     Returns:
         int32 (H, W) labels: 0..K-1 objects, ordered by size (largest first), then the
-        fragments; -1 elsewhere. With ``with_fragments``, ``(labels, fragment)``: fragment the
+        fragments (objects and fragments in one size order where split parts were rejoined);
+        -1 elsewhere. With ``with_fragments``, ``(labels, fragment)``: fragment the
         (H, W) bool pixels the fragments hold, or None without fragments (the caller drops
         those that join no object, :func:`symjax.perception.fragments.drop_fragments`).
     """

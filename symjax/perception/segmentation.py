@@ -161,7 +161,7 @@ def _segment_depth(
             colour = None if colour is None else colour.result()
             cut = None if colour is None else colour_creases(colour, kappa, cfg)
             lab, fragment = image_clusters(
-                conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa, True
+                conn[sl], height[sl], cand[sl], cfg, crease, colour, cut, kappa, with_fragments=True
             )
             if kappa is not None and lab.max() > 0:
                 foot = table_footprint(lab, rays[sl], conn[sl], T, n)
