@@ -111,7 +111,8 @@ def image_clusters(
     remap[order] = np.arange(len(order), dtype=np.int32)
     labels = remap[lab]
     n_objects = len(order)
-    if crease is not None and config.fragment_px > 0:
+    fragments_on = crease is not None and config.fragment_px > 0
+    if fragments_on:
         labels = fragment_labels(lab, remap, size, n_objects, config.fragment_px)
     if rim is not None and rim.any():
         labels = grow_cores(labels, rim, component, colour_crease)
@@ -168,7 +169,10 @@ def image_clusters(
             lab[idx[fr[done]]] = nl[rows, pick][done]
             alive = np.delete(alive, front[done])
     labels = lab.reshape(labels.shape[0] + 2, Wp)[1:-1, 1:-1]
-    fragment = labels >= n_objects if labels.max() >= n_objects else None
+    fragment = None
+    if fragments_on:  # (without them no pass over the labels for it)
+        fragment = labels >= n_objects
+        fragment = fragment if fragment.any() else None
     if component is not None and component.any():
         labels = rejoin_smooth(labels, component, depth, concavity, config, colour_crease)
     return (labels, fragment) if with_fragments else labels
