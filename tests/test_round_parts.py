@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from symjax import configs
 from symjax.perception import segment
 from symjax.perception.clutter_benchmark import match_ious
-from symjax.perception.round_parts import settle_round_parts, wall_circles
+from symjax.perception.round_parts import neck_circle, settle_round_parts, wall_circles
 from symjax.perception.synthetic import clutter_scene
 
 CFG = configs.load("clutter").segmentation
@@ -189,3 +189,133 @@ def test_a_round_part_gives_away_only_what_stands_beyond_its_wall(kinds, seed, o
     if "beyond" in off:
         monkeypatch.setattr(rp, "_BEYOND", 1.0)
     assert not _all_whole(kinds, seed)
+
+
+def _necked_bottle(rng, centre, r, arc, n=1200, noise=1e-3):
+    """Footprint (N, 2) and heights (N,) of a bottle seen over ``arc`` radians of its wall (up to
+    0.1 m, with ``noise`` m), its shoulder ring at 0.1 m on the near side, and its neck (0.4 r)
+    up to 0.14 m: the wall of its front half and its top."""
+    t = rng.uniform(0.0, arc, n)
+    wall = centre + r * np.stack([np.cos(t), np.sin(t)], 1) + rng.normal(0, noise, (n, 2))
+    a, rho = rng.uniform(0.0, arc, n // 3), rng.uniform(0.4 * r, r, n // 3)
+    ring = centre + rho[:, None] * np.stack([np.cos(a), np.sin(a)], 1)
+    a = rng.uniform(0.0, np.pi, n // 4)
+    neck = centre + 0.4 * r * np.stack([np.cos(a), np.sin(a)], 1)
+    a, rho = rng.uniform(0, 2 * np.pi, n // 4), 0.4 * r * np.sqrt(rng.uniform(0, 1, n // 4))
+    tip = centre + rho[:, None] * np.stack([np.cos(a), np.sin(a)], 1)
+    foot = np.concatenate([wall, ring, neck, tip])
+    height = np.concatenate([rng.uniform(0.0, 0.1, n), np.full(n // 3, 0.1),
+                             rng.uniform(0.1, 0.14, n // 4), np.full(n // 4, 0.14)])  # fmt: skip
+    return foot, height
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**16), r=st.floats(0.025, 0.045), arc=st.floats(0.6, np.pi))
+def test_neck_circle_of_a_bottle_is_its_body(seed, r, arc):
+    rng = np.random.default_rng(seed)
+    centre = rng.uniform(-0.3, 0.3, 2)
+    foot, height = _necked_bottle(rng, centre, r, arc)
+    circle = neck_circle(foot, height)
+    # (the top's points include the rim of the neck's near wall: a bias of 1-2 mm towards it)
+    assert circle is not None
+    assert np.linalg.norm(circle[0] - centre) < 3e-3 and abs(circle[1] - r) < 3e-3
+
+
+def test_on_a_short_arc_the_neck_circle_holds_where_a_free_fit_is_centimetres_off():
+    # 35 degrees of a 3.5 cm wall with 1 mm of noise, as a bottle beside its neighbours shows
+    # it (fresh clutter scenes: free circles of 9-25 mm for bottles of 31-39 mm).
+    errors = []
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        foot, height = _necked_bottle(rng, np.zeros(2), 0.035, 0.6)
+        fits = wall_circles(foot, height, CFG.round_residual, CFG.round_margin)
+        neck = neck_circle(foot, height)
+        free = np.inf if fits is None else abs(fits[0][1] - 0.035)
+        errors.append([free, abs(neck[1] - 0.035)])
+    free, neck = np.median(errors, axis=0)
+    assert free > 5e-3 and neck < 1e-3
+
+
+@pytest.mark.parametrize("kind", ["can", "box"])
+def test_a_can_or_a_box_has_no_neck(kind):
+    rng = np.random.default_rng(1)
+    if kind == "can":  # its lid is as wide as its wall
+        foot, height = _bottle(rng, np.zeros(2), 0.035, 0.0)
+        a, rho = rng.uniform(0, 2 * np.pi, 600), 0.035 * np.sqrt(rng.uniform(0, 1, 600))
+        foot = np.concatenate([foot, rho[:, None] * np.stack([np.cos(a), np.sin(a)], 1)])
+        height = np.concatenate([np.minimum(height, 0.1), np.full(600, 0.1)])
+    else:  # two faces at a right angle and the top between them
+        u, v = rng.uniform(0, 0.08, 800), rng.uniform(0, 0.05, 800)
+        face = np.concatenate([np.stack([u, 0 * u], 1), np.stack([0 * v, v], 1)])
+        top = np.stack([rng.uniform(0, 0.08, 800), rng.uniform(0, 0.05, 800)], 1)
+        foot = np.concatenate([face, top])
+        height = np.concatenate([rng.uniform(0.0, 0.1, 1600), np.full(800, 0.1)])
+    assert neck_circle(foot, height) is None
+
+
+def _bottle_beside_box():
+    """Labels (20, 40): a necked bottle (label 0, columns 0-19, centre (0, 0), radius 4 cm)
+    and a box face (label 1, columns 20-39) tangent to it at (0, 4.05 cm), 5 cm nearer the
+    camera (a depth step: the parts touch but do not meet on one surface)."""
+    rng = np.random.default_rng(5)
+    labels = np.repeat(np.repeat(np.array([[0, 1]], np.int32), 20, axis=1), 20, axis=0)
+    foot, height = np.zeros((20, 40, 2)), np.zeros((20, 40))
+    f, h = _necked_bottle(rng, np.zeros(2), 0.04, np.pi, noise=3e-4)
+    pick = rng.permutation(len(f))[:400]
+    foot[:, :20], height[:, :20] = f[pick].reshape(20, 20, 2), h[pick].reshape(20, 20)
+    foot[:, 20:, 0] = 0.004 * np.arange(20)  # columns 20-22 within 2 mm of the wall
+    foot[:, 20:, 1] = 0.0405
+    height[:, 20:] = rng.uniform(0.0, 0.1, (20, 20))
+    depth = np.where(np.arange(40) < 20, 1.05, 1.0)[None, :].repeat(20, axis=0)
+    return labels, foot, height, depth
+
+
+def test_a_neighbour_gives_back_what_it_took_within_a_neck_circle_across_a_depth_step():
+    labels, foot, height, depth = _bottle_beside_box()
+    assert neck_circle(foot[:, :20].reshape(-1, 2), height[:, :20].ravel()) is not None
+    # The box took a piece of the shoulder ring: rows 0-2 of columns 30-39.
+    a = np.random.default_rng(6).uniform(0.3, 1.2, (3, 10))
+    rho = np.random.default_rng(7).uniform(0.02, 0.04, (3, 10))
+    foot[:3, 30:] = rho[..., None] * np.stack([np.cos(a), np.sin(a)], -1)
+    height[:3, 30:] = 0.1
+    out = settle_round_parts(labels, foot, height, depth, CFG)
+    bottle, box = out[0, 0], out[10, 39]
+    assert (out[:3, 30:] == bottle).all() and (out[:, :20] == bottle).all()
+    # Its own face where it touches the wall, within the circle's slack, stays: it reaches
+    # nowhere inside the circle.
+    assert (out[3:, 20:] == box).all() and (out[:3, 20:30] == box).all()
+
+
+def test_without_a_neck_nothing_moves_across_a_depth_step():
+    labels, foot, height, depth = _bottle_beside_box()
+    foot[:3, 30:] = 0.0  # inside the disc
+    height[:, :20] = np.minimum(height[:, :20], 0.1)  # no neck: a can's lid at 0.1 m
+    out = settle_round_parts(labels, foot, height, depth, CFG)
+    np.testing.assert_array_equal(out, labels)
+
+
+@pytest.mark.parametrize(("seed", "box", "bottle", "off"), [
+    (10_029, 3, 1, (100, 200)),
+    (10_167, 0, 1, (100, 200)),
+    (10_410, 0, 3, (120, 220)),
+    (10_415, 5, 1, (250, 400)),
+])  # fmt: skip
+def test_fresh_boxes_give_back_the_shoulder_rings_they_took(seed, box, bottle, off, monkeypatch):
+    # Fresh clutter scenes (the draw from seed 10,000: its 15th, 82nd, 195th and 197th): a box
+    # top meets a bottle's shoulder at one height and took its ring and the wall below it,
+    # which put the box's symmetry plane 12-24 mm off. With necks the box keeps under 30 of the
+    # bottle's pixels; without, it keeps ``off`` of them.
+    import symjax.perception.round_parts as rp
+    from symjax.perception.clutter_benchmark import fresh_scenes
+
+    sc = fresh_scenes(1, seed)[0][1]
+    for necks in (True, False):
+        if not necks:
+            monkeypatch.setattr(rp, "neck_circle", lambda foot, height: None)
+        result = segment(sc.depth, sc.camera, CFG)
+        ious, match = match_ious(sc.truth, result)
+        held = int((result.objects[int(match[box])].mask & (sc.truth == bottle)).sum())
+        if necks:
+            assert held < 30 and ious[box] >= 0.95 and ious[bottle] >= 0.94
+        else:
+            assert off[0] <= held <= off[1]

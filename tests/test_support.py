@@ -70,11 +70,12 @@ def test_joined_contacts_are_the_contacts_of_the_joined_parts(monkeypatch):
     seen = []
 
     def checked(labels, foot, height, config, depth=None, with_contacts=False):
-        joined, smooth = support.join_supported(labels, foot, height, config, depth, True)
-        recount, _, _ = contacts(joined, depth, 0.5 * config.depth_jump, height)
+        joined, smooth, touch = support.join_supported(labels, foot, height, config, depth, True)
+        recount, retouch, _ = contacts(joined, depth, 0.5 * config.depth_jump, height)
         np.testing.assert_array_equal(smooth, recount)
+        np.testing.assert_array_equal(touch, retouch)
         seen.append(int(labels.max()) - int(joined.max()))
-        return (joined, smooth) if with_contacts else joined
+        return (joined, smooth, touch) if with_contacts else joined
 
     monkeypatch.setattr(segmentation, "join_supported", checked)
     sc = clutter_scene(("bottle", "can", "bottle", "can", "bottle", "box", "can"), seed=33)

@@ -87,6 +87,8 @@ class SegmentationConfig:
             across a round part's wall (:mod:`symjax.perception.round_parts`): pixels whose points
             stand more than this inside a round neighbour's disc go to it, and pixels of a round
             part more than this outside its circle go to a neighbour whose footprint holds them.
+            A bottle's circle about the axis its neck marks also takes back, from any part it
+            touches, the pieces within it that reach inside it (its shoulder's ring).
         round_residual: A part's wall is round when its points lie within this median distance
             (m) of a circle.
         round_objects: With creases, a part whose wall holds a round object's circle loses the

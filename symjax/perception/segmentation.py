@@ -168,11 +168,11 @@ def _segment_depth(
                 if cfg.round_objects:  # (before the joins: they give a strip back)
                     lab = split_round_objects(lab, foot, height[sl], cfg.min_cluster_points)
                 lab = join_occluded_halves(lab, foot, height[sl], conn[sl], cfg)
-                lab, smooth = join_supported(
+                lab, smooth, touch = join_supported(
                     lab, foot, height[sl], cfg, depth=conn[sl], with_contacts=True
                 )
                 if cfg.round_margin > 0:  # (joins relabel parts, not pixels: foot holds)
-                    lab = settle_round_parts(lab, foot, height[sl], conn[sl], cfg, smooth)
+                    lab = settle_round_parts(lab, foot, height[sl], conn[sl], cfg, smooth, touch)
             if fragment is not None:  # (those that joined no object)
                 lab = drop_fragments(lab, fragment)
             lab[~valid[sl]] = -1

@@ -188,7 +188,7 @@ def join_supported(
     config: SegmentationConfig,
     depth: np.ndarray | None = None,
     with_contacts: bool = False,
-) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Joins the parts of one object that creases cut apart (see the module docstring).
 
     Args:
@@ -199,17 +199,18 @@ def join_supported(
         config: ``support_height``, ``support_narrow``, ``depth_jump``.
         depth: (H, W) depth, metres: a narrow part joins only a part it meets without a depth
             step (under half ``depth_jump``); None = any part it touches.
-        with_contacts: Also return the joined parts' pixel pairs on one surface, the first
-            matrix of :func:`contacts` of the returned labels (kept up to date while joining,
-            so that later steps need not count them again).
+        with_contacts: Also return the joined parts' pixel pairs on one surface and all their
+            pixel pairs, the first two matrices of :func:`contacts` of the returned labels
+            (kept up to date while joining, so that later steps need not count them again).
 
     Returns:
-        (H, W) int32 labels, renumbered by decreasing size; with ``with_contacts`` also that
-        (K, K) matrix.
+        (H, W) int32 labels, renumbered by decreasing size; with ``with_contacts`` also those
+        two (K, K) matrices.
     """
     n = int(labels.max(initial=-1)) + 1
     if n < 2:
-        return (labels, np.zeros((n, n), np.int64)) if with_contacts else labels
+        none = np.zeros((n, n), np.int64)
+        return (labels, none, none.copy()) if with_contacts else labels
     z = depth if depth is not None else np.zeros(labels.shape, np.float32)
     step = 0.5 * config.depth_jump if depth is not None else np.inf
     # contact: pixel pairs on one surface; touch: all pairs, across depth steps too; rise: how
@@ -331,7 +332,10 @@ def join_supported(
     if not with_contacts:
         return joined
     alive = np.array(sorted(parts))
-    smooth = np.zeros((len(alive), len(alive)), contact.dtype)
-    smooth[np.ix_(rank[alive], rank[alive])] = contact[np.ix_(alive, alive)]
-    np.fill_diagonal(smooth, 0)  # pairs inside a joined part are no contact
-    return joined, smooth
+    out = []
+    for mat in (contact, touch):
+        pairs = np.zeros((len(alive), len(alive)), mat.dtype)
+        pairs[np.ix_(rank[alive], rank[alive])] = mat[np.ix_(alive, alive)]
+        np.fill_diagonal(pairs, 0)  # pairs inside a joined part are no contact
+        out.append(pairs)
+    return joined, *out
