@@ -135,14 +135,18 @@ def test_a_gap_in_the_wall_splits_only_a_walled_piece(gap, flat, split):
     (99, ("box", "bottle", "can", "bottle", "can"), (0, 1)),
     (384, ("can", "box", "bottle", "bottle", "box", "bottle", "bottle", "box"), (6,)),
 ])  # fmt: skip
-def test_scenes_with_a_round_object_joined_or_given_a_strip(seed, kinds, k):
+def test_scenes_with_a_round_object_joined_or_given_a_strip(seed, kinds, k, monkeypatch):
     # Clutter scenes 50 (a box and the bottle tangent to it were one object: IoU 0.49 and 0.18)
     # and 179 (a bottle took a strip of its neighbour: 0.83) of the 270 examined: whole with
     # round_objects, not without, and no object worse by more than a hundredth. (Without the
-    # fragments too: in scene 179 they keep the strip from the bottle as well.)
+    # fragments and the necks too: in scene 179 each keeps the strip from the bottle as well.)
+    import symjax.perception.round_parts as round_parts
+
     sc = clutter_scene(kinds, seed=seed)
-    before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, dataclasses.replace(
-        CFG, round_objects=False, fragment_px=0)))  # fmt: skip
+    with monkeypatch.context() as patch:
+        patch.setattr(round_parts, "neck_circle", lambda foot, height: None)
+        before, _ = match_ious(sc.truth, segment(sc.depth, sc.camera, dataclasses.replace(
+            CFG, round_objects=False, fragment_px=0)))  # fmt: skip
     res = segment(sc.depth, sc.camera, CFG)
     after, _ = match_ious(sc.truth, res)
     assert before[list(k)].max() < 0.85 <= after.min() and len(res) == len(kinds)
