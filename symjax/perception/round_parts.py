@@ -229,7 +229,8 @@ def settle_round_parts(
     F, Z = foot.reshape(-1, 2), height.ravel()
     order, starts, count = part_pixels(labels, n)
     pixels = [order[starts[k] : starts[k + 1]] for k in range(n)]
-    necks = {k: c for k in range(n) if (c := neck_circle(F[pixels[k]], Z[pixels[k]])) is not None}
+    feet, heights = [F[i] for i in pixels], [Z[i] for i in pixels]  # each part's, gathered once
+    necks = {k: c for k in range(n) if (c := neck_circle(feet[k], heights[k])) is not None}
     # A neck's circle takes back from the parts it touches across a depth step too.
     near = meet
     if necks:
@@ -238,8 +239,7 @@ def settle_round_parts(
         near = meet | (touch >= _MIN_TOUCH)
         np.fill_diagonal(near, False)
     idx = {k: pixels[k] for k in range(n) if near[k].any()}
-    feet = {k: F[i] for k, i in idx.items()}  # each part's footprint, gathered once
-    fits = {k: wall_circles(feet[k], Z[i], config.round_residual, margin) for k, i in idx.items()}
+    fits = {k: wall_circles(feet[k], heights[k], config.round_residual, margin) for k in idx}
     # Each move by the circle that errs against it (module docstring).
     small = {k: None if f is None else f[0] for k, f in fits.items()}
     large = {k: None if f is None else f[1] for k, f in fits.items()}
