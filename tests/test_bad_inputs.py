@@ -461,6 +461,7 @@ CASES = [
     ("clutter-kind", lambda d: clutter_scene(("box", "teapot")), InvalidInputError, ["'teapot'", "box", "can", "bottle"]),
     ("clutter-arrangement", lambda d: clutter_scene(("box", "can"), arrangement="pile"), InvalidInputError, ["'pile'", "side_by_side", "front_back", "cluster"]),
     ("segmentation-round-objects", lambda d: perception.SegmentationConfig(round_objects="yes"), ConfigError, ["round_objects", "'yes'", "true or false"]),
+    ("segmentation-unclaimed-occluders", lambda d: perception.SegmentationConfig(unclaimed_occluders=1), ConfigError, ["unclaimed_occluders", "1", "true or false"]),
     ("clutter-fresh-count", lambda d: fresh_scenes(-3, 10_000), ConfigError, ["fresh scenes", ">= 0", "-3"]),
     ("clutter-fresh-examined-seed", lambda d: fresh_scenes(5, 100), ConfigError, ["seed > 567", "seed 100"]),
     ("bench-perception-symmetry-held-out", lambda d: _script_main("bench_perception")(["--symmetry-held-out"]), ConfigError, ["--symmetry-held-out", "--held-out-scenes"]),

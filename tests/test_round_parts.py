@@ -294,6 +294,29 @@ def test_without_a_neck_nothing_moves_across_a_depth_step():
     np.testing.assert_array_equal(out, labels)
 
 
+@pytest.mark.parametrize(("start", "moves"), [(-0.07, True), (-0.115, False)])
+def test_a_bottle_gives_a_neighbour_the_piece_it_shows_on_its_other_side(start, moves):
+    # The bottle holds a piece of the box's face seen on its other side, 2-7 cm beyond its
+    # circle: it goes to the box when it comes within the bottle's width (8 cm) of the box's
+    # footprint (4.5-7 cm here), and stays whole 9-11.5 cm away (no neighbour's).
+    labels, foot, height, depth = _bottle_beside_box()
+    foot[:, 20:, 1] += np.linspace(0.0, 0.02, 20)[:, None]  # the box's top, 2 cm deep
+    piece = (slice(0, 3), slice(0, 10))
+    foot[piece + (0,)] = np.linspace(start, start + 0.025, 10)[None, :]
+    foot[piece + (1,)] = 0.0405
+    height[piece] = 0.1
+    circle = neck_circle(foot[:, :20].reshape(-1, 2), height[:, :20].ravel())
+    assert circle is not None
+    beyond = np.hypot(*(foot[piece] - circle[0]).reshape(-1, 2).T) - circle[1]
+    assert beyond.min() > 0.015
+    out = settle_round_parts(labels, foot, height, depth, CFG)
+    bottle, box = out[10, 10], out[10, 39]
+    assert (out[piece] == (box if moves else bottle)).all()
+    rest = np.ones(labels.shape, bool)
+    rest[piece] = False
+    np.testing.assert_array_equal(out[rest] == box, labels[rest] == 1)
+
+
 @pytest.mark.parametrize(("seed", "box", "bottle", "off"), [
     (10_029, 3, 1, (100, 200)),
     (10_167, 0, 1, (100, 200)),
@@ -319,3 +342,26 @@ def test_fresh_boxes_give_back_the_shoulder_rings_they_took(seed, box, bottle, o
             assert held < 30 and ious[box] >= 0.95 and ious[bottle] >= 0.94
         else:
             assert off[0] <= held <= off[1]
+
+
+def test_fresh_bottle_gives_back_the_box_face_seen_on_its_other_side(monkeypatch):
+    # Fresh clutter scene 10,085 (the draw from seed 10,000: its 43rd): a bottle (truth 5)
+    # stands in front of a box (truth 3) that touches it, and the box's face shows on both
+    # sides of it. The creases left the far piece too few seeds for a part, and its band grew
+    # from the bottle through the contact: 132 of the box's pixels, 2-6 cm beyond the bottle's
+    # circle (166 in the bottle's mask), and the box's plane 39 deg off. Now they go back to the
+    # box (measured: 34 left in the mask, the box's IoU 0.92 -> 0.97).
+    import symjax.perception.round_parts as rp
+    from symjax.perception.clutter_benchmark import fresh_scenes
+
+    sc = fresh_scenes(1, 10_085)[0][1]
+    for beyond in (True, False):
+        if not beyond:
+            monkeypatch.setattr(rp, "_NECK_BEYOND", np.inf)
+        result = segment(sc.depth, sc.camera, CFG)
+        ious, match = match_ious(sc.truth, result)
+        held = int((result.objects[int(match[5])].mask & (sc.truth == 3)).sum())
+        if beyond:
+            assert held < 50 and ious[3] >= 0.95 and ious[5] >= 0.95
+        else:
+            assert 120 <= held <= 250 and ious[3] < 0.93

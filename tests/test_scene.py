@@ -74,6 +74,34 @@ def test_search_scene_searches_again_only_what_has_occluders(can_behind_box):
             assert float(together.vote[i]) == float(first.vote[i])
 
 
+def test_views_whose_occluders_have_no_back_are_not_searched_again(can_behind_box, monkeypatch):
+    # Surfaces that no object holds (segment's unclaimed_occluders) have no completion behind
+    # them: a view whose only occluder pixels are theirs keeps its first search.
+    import symjax.symmetry.scene as scene
+
+    res, sym, first = can_behind_box
+    back = back_depth(res.objects, first)
+    i = next(j for j, o in enumerate(res.objects) if not _occluders(o).any())
+    box = res.objects[i]
+    depth = np.asarray(box.depth).copy()
+    patch = np.zeros(depth.shape, bool)
+    patch[:10, :10] = True
+    assert not (back[patch] > 0).any() and not np.asarray(box.mask)[patch].any()
+    depth[patch] = 0.8
+    box = dataclasses.replace(box, depth=depth)
+    assert behind_neighbours(box, back) is box
+    objects = list(res.objects)
+    objects[i] = box
+    calls = []
+    real = scene.search_batch
+    monkeypatch.setattr(
+        scene, "search_batch", lambda o, *a, **k: calls.append(len(o)) or real(o, *a, **k)
+    )
+    together = search_scene(objects, sym, first=first)
+    assert calls == [len(objects) - 1]  # the can behind the box only
+    assert float(together.vote[i]) == float(first.vote[i])
+
+
 @pytest.mark.parametrize(
     ("kinds", "seed", "k"),
     [

@@ -114,6 +114,12 @@ class SegmentationConfig:
             two or more cores of ``min_cluster_points`` seed pixels is split there: two touching
             objects joined through a few pixels where the crease and the depth step both missed
             (:func:`symjax.perception.clusters.image_clusters`); 0 = off.
+        unclaimed_occluders: Pieces of surface that no object holds and that touch an object
+            (a sliver of a box seen beside a nearer bottle, too small to be a part of its own)
+            are occluders in every object's depth image: a surface was seen there, so a mirrored
+            point behind it may be hidden (Eq. 3); without this they count as free space seen
+            empty (:func:`symjax.perception.object_info.unclaimed_surfaces`: pixels above
+            ``seed_height``, the stray points left out, pieces of 20 pixels or more).
         seed: Random seed of the RANSAC sampling (results are deterministic).
     """
 
@@ -162,6 +168,7 @@ class SegmentationConfig:
     level_top_px: int = 0
     object_holes: bool = False
     round_objects: bool = False
+    unclaimed_occluders: bool = False
     seed: int = 0
 
     def __post_init__(self) -> None:

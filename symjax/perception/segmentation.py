@@ -43,6 +43,7 @@ from symjax.perception.object_info import (
     describe_object,
     describe_objects,
     occluder_depth,
+    unclaimed_surfaces,
 )
 from symjax.perception.occluded_halves import join_occluded_halves
 from symjax.perception.ransac import fit_table_plane, ransac_plane, subsample
@@ -137,6 +138,7 @@ def _segment_depth(
     if cfg.table_hull and on_table.any():
         cand &= table_hull(on_table)
     labels = np.full(hw, -1, np.int32)
+    surface = None  # with unclaimed_occluders: the candidates measured (box sl), less strays
     if cand.any():
         # Work on the candidates' bounding box (plus a pixel for the depth steps) only.
         rows, cols = np.flatnonzero(cand.any(axis=1)), np.flatnonzero(cand.any(axis=0))
@@ -176,7 +178,10 @@ def _segment_depth(
             if fragment is not None:  # (those that joined no object)
                 lab = drop_fragments(lab, fragment)
             lab[~valid[sl]] = -1
-            lab[grid_outliers(depth[sl], rays[sl], lab, cfg, distances.result())] = -1
+            stray = grid_outliers(depth[sl], rays[sl], lab, cfg, distances.result())
+            lab[stray] = -1
+            if cfg.unclaimed_occluders:  # (the sensor's stray points are no surface)
+                surface = cand[sl] & valid[sl] & (height[sl] > cfg.seed_height) & ~stray
         labels[sl] = lab
     from scipy.ndimage import find_objects
 
@@ -226,16 +231,24 @@ def _segment_depth(
         made.append((points[k], mask | m, m))
     labels = np.append(keep, np.int32(-1))[labels]  # -1 indexes the appended -1
     boxes = find_objects(labels + 1, max_label=len(made))
+    # Depth of the pieces of surface above the table that no object holds, 0 elsewhere.
+    unclaimed = None
+    if surface is not None and made:  # (on the candidates' box sl, as surface)
+        piece = unclaimed_surfaces(labels[sl], surface, depth[sl])
+        if piece is not None:
+            unclaimed = np.zeros(hw, np.float32)
+            unclaimed[sl] = piece
 
     def finish(i: int):
         p, mask, m = made[i]
         obs = Observation.create(p, camera, table, mask, depth * m)
         info, notes = describe_object(i, obs, labels, depth, table, cfg, boxes[i])
-        if info.occluded_by:
+        if info.occluded_by or unclaimed is not None:
             # Neighbours in front hide part of the object: their pixels keep their depth
             # outside its mask, so that the symmetry search does not take them for empty
-            # space (Eq. 3).
+            # space (Eq. 3); so do the surfaces no object holds (the sets are disjoint).
             occ = occluder_depth(labels, depth, info.occluded_by, boxes)
+            occ = occ if unclaimed is None else occ + unclaimed
             obs = dataclasses.replace(obs, depth=np.where(mask, obs.depth, occ))
         return obs, info, notes
 

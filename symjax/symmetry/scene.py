@@ -8,7 +8,8 @@ whole mirror image just behind its neighbours otherwise wins by having nothing t
 Here each object is searched once, its completion (its points and their kept mirror images)
 gives the depth of its back surface on its own pixels, and every object with occluders is
 searched again with each occluder pixel's depth pushed back to that surface, so that only a
-mirrored point behind the whole neighbour counts as hidden.
+mirrored point behind the whole neighbour counts as hidden. (An object whose occluder pixels
+all stay, surfaces that no object holds and so have no back, keeps its first search.)
 """
 
 from __future__ import annotations
@@ -71,10 +72,11 @@ def back_depth(observations: Sequence[Observation], result: SymmetryResult) -> n
 
 def behind_neighbours(obs: Observation, back: np.ndarray) -> Observation:
     """The observation with each occluder pixel (depth outside its mask) at the depth of the
-    occluder's back (:func:`back_depth`) where that lies deeper than its visible surface."""
+    occluder's back (:func:`back_depth`) where that lies deeper than its visible surface;
+    ``obs`` itself where no pixel moves."""
     depth = np.asarray(obs.depth, np.float32)
     occluder = ~np.asarray(obs.mask, bool) & (depth > 0)
-    if not occluder.any():
+    if not (occluder & (back > depth)).any():
         return obs
     deeper = np.where(occluder, np.maximum(depth, back), depth).astype(np.float32)
     return dataclasses.replace(obs, depth=deeper)
@@ -117,15 +119,19 @@ def search_scene(
     if not cfg.neighbour_volumes:
         return result
     obs = list(observations)
-    again = [i for i, o in enumerate(obs) if _has_occluders(o)]
-    if not again:
+    if not any(_has_occluders(o) for o in obs):
         return result
     back = back_depth(obs, result)
-    # Only the views with occluders change: the others keep their first search.
+    # Only the views whose occluders move back change: the others keep their first search
+    # (surfaces that no object holds have no back, segment's unclaimed_occluders).
+    moved = [behind_neighbours(o, back) for o in obs]
+    again = [i for i, o in enumerate(moved) if o is not obs[i]]
+    if not again:
+        return result
     errors = [None if ok else result.errors[i] for i, ok in enumerate(result.ok)]
     single = {i: result[i] for i, ok in enumerate(result.ok) if ok and i not in again}
     try:
-        second = search_batch([behind_neighbours(obs[i], back) for i in again], cfg, execution)
+        second = search_batch([moved[i] for i in again], cfg, execution)
     except SymjaxError as e:  # none of them could be searched again
         second = None
         for i in again:
