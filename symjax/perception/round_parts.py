@@ -278,6 +278,12 @@ def settle_round_parts(
     # holding it (within the margin of its circle or footprint hull). What it took from its
     # neighbours above lies inside its disc.
     hulls: dict = {}
+
+    def hull(b):  # a part's footprint hull, once (on at most about 4,000 of its points)
+        if b not in hulls:
+            hulls[b] = convex_hull_2d(feet[b][:: max(1, len(feet[b]) // 4000)])
+        return hulls[b]
+
     for a, ca in large.items():
         if ca is None:
             continue
@@ -291,9 +297,7 @@ def settle_round_parts(
             if cb is not None:
                 g = _distance(f, cb[0]) - cb[1]
             else:
-                if b not in hulls:
-                    hulls[b] = convex_hull_2d(feet[b][:: max(1, len(feet[b]) // 4000)])
-                g = -hull_distance(hulls[b], f)
+                g = -hull_distance(hull(b), f)
             take = (g <= margin) & (g < gap)
             best[take], gap[take] = b, g[take]
         owner[a][far[best >= 0]] = best[best >= 0]
@@ -311,10 +315,8 @@ def settle_round_parts(
         piece = _pieces(labels.shape, idx[a][far])  # (whole pieces: none split at the bound)
         best, gap = np.full(piece.max() + 1, -1), np.full(piece.max() + 1, np.inf)
         for b in np.flatnonzero(near[a]):
-            if b not in hulls:
-                hulls[b] = convex_hull_2d(feet[b][:: max(1, len(feet[b]) // 4000)])
             g = np.full(len(gap), np.inf)
-            np.minimum.at(g, piece, -hull_distance(hulls[b], f))
+            np.minimum.at(g, piece, -hull_distance(hull(b), f))
             take = (g <= 2 * ca[1]) & (g < gap)
             best[take], gap[take] = b, g[take]
         owner[a][far] = np.where(best[piece] >= 0, best[piece], a)
