@@ -20,11 +20,12 @@ with the true occluders too); and the time of a 640x480 and a 1280x720 clutter f
 rules were made on (``symjax.perception.clutter_benchmark.held_out_scenes``); with
 ``--fresh-scenes 270`` the scenes drawn from seed 10,000 on (``fresh_scenes``), a second sample;
 with ``--symmetry-held-out`` also the symmetry row over the held-out scenes, and with
-``--symmetry-fresh`` over the fresh ones.
+``--symmetry-fresh`` over the fresh ones; with ``--symmetry-colour`` each symmetry row again
+with the colour images given.
 
 Usage: ``python scripts/bench_perception.py [--repeats 20] [--clutter-scenes 30]
 [--held-out-scenes 180 [--symmetry-held-out]] [--fresh-scenes 270 [--fresh-seed 10000]
-[--symmetry-fresh]]``
+[--symmetry-fresh]] [--symmetry-colour]``
 """
 
 from __future__ import annotations
@@ -131,6 +132,18 @@ def _clutter_rows(args, default) -> list[dict]:
         row = {"case": "clutter_symmetry_separated_vs_alone_fresh", "scenes": len(fresh)}
         rows.append(row | symmetry_rows(fresh, cfg, True, sym))
         print(json.dumps(rows[-1]), flush=True)
+    if args.symmetry_colour:
+        # The same pairs with the frames' colour images given, to the separated and the alone.
+        for tag, sample, on in (
+            ("", scenes, True),
+            ("_held_out", held_only, args.symmetry_held_out),
+            ("_fresh", fresh, args.symmetry_fresh),
+        ):
+            if on and sample:
+                row = {"case": f"clutter_symmetry_separated_vs_alone{tag}_with_colour"}
+                row |= {"scenes": len(sample)} | symmetry_rows(sample, cfg, False, sym, colour=True)
+                rows.append(row)
+                print(json.dumps(row), flush=True)
     # The timed frame: the tenth clutter scene (the last one when the benchmark had ten), at
     # both resolutions, so the speed rows stay comparable with earlier runs.
     clutter = [sc for g, sc in scenes if g == "clutter"]
@@ -198,6 +211,9 @@ class Args(PresetArgs):
     """Also the symmetry row over the fresh scenes
     (``clutter_symmetry_separated_vs_alone_fresh``): the same comparison on scenes that no
     setting was chosen on."""
+    symmetry_colour: bool = False
+    """Also each symmetry row with the colour images given to the segmentation of the
+    separated and of the alone frames (``..._with_colour``; without the true-mask columns)."""
 
 
 def main(argv=None) -> int:

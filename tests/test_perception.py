@@ -321,6 +321,35 @@ def test_symmetry_rows_pair_the_separated_and_the_alone(monkeypatch):
     assert row["mcnemar_p"] == (0.5 if row["right_only_alone"] == 2 else 1.0)
 
 
+def test_symmetry_rows_with_colour_give_every_frame_its_colour_image(monkeypatch):
+    # With colour, the separated frame and each object's alone frame are segmented with their
+    # own colour image; without it, with none.
+    from symjax import configs
+    from symjax.perception import clutter_benchmark as cb
+    from symjax.perception import segmentation as seg
+    from symjax.perception.synthetic import clutter_scene
+
+    scenes = [("side_by_side", clutter_scene(("box", "can"), 0, "side_by_side"))]
+    config = configs.load("clutter").segmentation
+    real = seg.segment
+    for colour in (True, False):
+        given = []
+
+        def recording(depth, camera=None, config=None, rgb=None):
+            given.append((depth, rgb))
+            return real(depth, camera, config, rgb=rgb)
+
+        monkeypatch.setattr(seg, "segment", recording)
+        row = cb.symmetry_rows(scenes, config, colour=colour)
+        assert row["objects"] == 2 and len(given) == 3  # the frame, then each object alone
+        for depth, rgb in given:
+            if colour:
+                assert rgb is not None and rgb.shape == depth.shape + (3,)
+            else:
+                assert rgb is None
+        assert given[0][0] is scenes[0][1].depth
+
+
 def test_truth_observation_masks_and_occluders():
     # A can behind a box: its true mask is its visible pixels; the true occluders are the box's
     # pixels over its silhouette (and nothing else), and the rule finds the box in front too.

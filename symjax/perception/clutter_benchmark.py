@@ -233,7 +233,9 @@ def truth_observation(
     return dataclasses.replace(obs, depth=np.where(mask, depth, occ).astype(np.float32))
 
 
-def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symmetry=None) -> dict:
+def symmetry_rows(
+    scenes, config: SegmentationConfig, truth: bool = False, symmetry=None, colour: bool = False
+) -> dict:
     """Share of separated objects (IoU >= 0.85) whose symmetry plane is within 10 deg and 10 mm
     of the truth, and the same for each of them segmented from a frame where it stands alone.
 
@@ -249,7 +251,8 @@ def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symme
     search's :class:`symjax.symmetry.SymmetryConfig` (None = the default). The separated objects
     of a frame are searched together (:func:`symjax.symmetry.search_scene`: with
     ``neighbour_volumes``, against their neighbours' completed volumes, and so are the true
-    masks with the rule's occluders).
+    masks with the rule's occluders). With ``colour`` each frame, the separated and the alone,
+    is segmented with its colour image too (the cut pixels' colour and the colour creases).
     """
     from symjax.perception.segmentation import segment
     from symjax.symmetry import SymmetryConfig, search, search_batch, search_scene
@@ -262,7 +265,7 @@ def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symme
     bounds = (0.0, *HIDDEN_EDGES, 1.0)
     buckets = {f"{a:.2f}-{b:.2f}": [0, 0, 0] for a, b in zip(bounds[:-1], bounds[1:], strict=True)}
     for _, sc in scenes:
-        res = segment(sc.depth, sc.camera, config)
+        res = segment(sc.depth, sc.camera, config, rgb=sc.rgb if colour else None)
         ious, match = match_ious(sc.truth, res)
         if res.objects and (ious >= 0.85).any():
             # the frame's objects searched together, as the product does (search_scene)
@@ -271,7 +274,7 @@ def symmetry_rows(scenes, config: SegmentationConfig, truth: bool = False, symme
             back = back_depth(res.objects, first) if symmetry.neighbour_volumes else None
         for k in np.flatnonzero(ious >= 0.85):
             alone = clutter_scene_alone(sc, int(k))
-            solo = segment(alone.depth, alone.camera, config)
+            solo = segment(alone.depth, alone.camera, config, rgb=alone.rgb if colour else None)
             if len(solo) != 1:
                 continue
             obs = {"alone": solo.objects[0]}
