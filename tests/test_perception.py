@@ -335,7 +335,7 @@ def test_symmetry_rows_with_colour_give_every_frame_its_colour_image(monkeypatch
     for colour in (True, False):
         given = []
 
-        def recording(depth, camera=None, config=None, rgb=None):
+        def recording(depth, camera=None, config=None, rgb=None, given=given):
             given.append((depth, rgb))
             return real(depth, camera, config, rgb=rgb)
 
