@@ -335,6 +335,8 @@ CASES = [
     ("sym-box-fan", lambda d: SymmetryConfig(box_fan=1.5), ConfigError, ["box_fan", "[0, 1]", "1.5"]),
     ("sym-box-axes", lambda d: SymmetryConfig(box_axes=3), ConfigError, ["box_axes", "1 or 2", "3"]),
     ("sym-neighbour-volumes", lambda d: SymmetryConfig(neighbour_volumes="yes"), ConfigError, ["neighbour_volumes", "'yes'", "true or false"]),
+    ("sym-outside-huber-neg", lambda d: SymmetryConfig(outside_huber_px=-1.0), ConfigError, ["outside_huber_px", ">= 0", "-1.0"]),
+    ("sym-outside-huber-nan", lambda d: SymmetryConfig(outside_huber_px=math.nan), ConfigError, ["outside_huber_px = nan", "finite"]),
     ("sym-other-axis-favour", lambda d: SymmetryConfig(other_axis_favour=1.0), ConfigError, ["other_axis_favour", "[0, 1)", "1.0"]),
     ("poisson-depth", lambda d: surface.PoissonConfig(depth=9), ConfigError, ["depth", "[2, 8]", "9"]),
     ("poisson-depth-float", lambda d: surface.PoissonConfig(depth=7.0), ConfigError, ["depth = 7.0", "an integer"]),

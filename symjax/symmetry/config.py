@@ -84,6 +84,13 @@ class SymmetryConfig:
             each occluder pixel pushed back to the back of that occluder's own completion, so
             that a mirrored point just behind a neighbour's visible surface, inside the
             neighbour, contradicts the plane instead of hiding there.
+        outside_huber_px: Beyond the paper; 0 = off (Eq. 3's squared distance). Above this
+            distance (pixels) outside the mask a mirrored point's delta_1 grows linearly, as
+            Huber's loss does (``c (2 d - c)`` instead of ``d^2``; the distance transform is at
+            least 1 pixel outside the mask, so 1 makes every outside point's delta_1 ``2 d - 1``).
+            A neighbour's few points along a seam that the segmentation drew a pixel or two wrong
+            mirror far outside the object, and their squares outweigh the rest of the view. The
+            vote only: the completion's plausibility keeps the square.
         w_outside: Weight of E[delta_1], the squared distance (pixels^2) of mirrored points that
             fall outside the segmentation mask (Eq. 3, first term).
         w_inside: Weight of E[delta_2], the depth difference (metres) of mirrored points that fall
@@ -113,6 +120,7 @@ class SymmetryConfig:
     box_axes: int = 1
     other_axis_favour: float = 0.0
     neighbour_volumes: bool = False
+    outside_huber_px: float = 0.0
     w_outside: float = 1.0
     w_inside: float = 1000.0
     depth_tolerance: float = 0.002
@@ -148,12 +156,14 @@ class SymmetryConfig:
             raise ConfigError(f"angle_range must be in [0, pi/2] rad, got {self.angle_range}")
         if not self.shift_min <= self.shift_max:
             raise ConfigError(f"shift_min {self.shift_min} must be <= shift_max {self.shift_max}")
-        for name in ("w_outside", "w_inside", "depth_tolerance", "shift_min", "shift_max"):
+        for name in (
+            "w_outside", "w_inside", "depth_tolerance", "outside_huber_px", "shift_min", "shift_max"
+        ):  # fmt: skip
             v = getattr(self, name)
             # NaN fails every comparison: test for the accepted range, not against it.
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
                 raise ConfigError(f"{name} must be a finite number, got {v!r}")
-        for name in ("w_outside", "w_inside", "depth_tolerance"):
+        for name in ("w_outside", "w_inside", "depth_tolerance", "outside_huber_px"):
             if not getattr(self, name) >= 0:
                 raise ConfigError(f"{name} must be >= 0, got {getattr(self, name)!r}")
         if self.normalize not in ("subset", "all"):

@@ -52,7 +52,9 @@ def score_planes_numpy(
         dist = dt[rr.astype(int), cc.astype(int)] + np.hypot(col - cc, row - rr)
         is_in = front & (dist <= 0)
         is_out = ~is_in
-        d1 = np.where(front, dist**2, float(H * H + W * W))
+        c = config.outside_huber_px
+        loss = dist**2 if c <= 0 else np.where(dist <= c, dist**2, c * (2.0 * dist - c))
+        d1 = np.where(front, loss, float(H * H + W * W))
         observed = depth[rr.astype(int), cc.astype(int)]
         ahead = is_in & (observed > 0) & (z < observed - config.depth_tolerance)
         # Behind an occluder (depth outside the mask) a mirrored point is hidden: in neither

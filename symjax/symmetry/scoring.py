@@ -245,6 +245,14 @@ def _score_chunk(view: ViewArrays, rows, normals, offsets, cfg: SymmetryConfig, 
     return s_out / jnp.maximum(n_out, 1.0), s_in / jnp.maximum(n_in, 1.0)
 
 
+def _outside_loss(dist, huber_px: float):
+    """delta_1 of points ``dist`` pixels outside the mask: the square (Eq. 3), or Huber's loss
+    with threshold ``huber_px`` > 0 (:attr:`SymmetryConfig.outside_huber_px`)."""
+    if huber_px <= 0.0:
+        return dist * dist
+    return jnp.where(dist <= huber_px, dist * dist, huber_px * (2.0 * dist - huber_px))
+
+
 def _slab_sums(
     view: ViewArrays, rows, valid, normals, offsets, cfg: SymmetryConfig, gate, hidden: bool
 ):
@@ -277,7 +285,7 @@ def _slab_sums(
     inside = (dist <= 0.0) & front
     # A mirrored point behind the camera contradicts any hypothesis: the worst outside distance.
     far = jnp.asarray(H * H + W * W, dist.dtype)
-    delta1 = jnp.where(front, dist * dist, far)
+    delta1 = jnp.where(front, _outside_loss(dist, cfg.outside_huber_px), far)
     obs_depth = jnp.maximum(pix, 0.0)
     ahead = inside & (obs_depth > 0) & (zx < obs_depth - cfg.depth_tolerance)
     delta2 = jnp.where(ahead, obs_depth - zx, 0.0)
