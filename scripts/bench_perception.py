@@ -21,11 +21,12 @@ rules were made on (``symjax.perception.clutter_benchmark.held_out_scenes``); wi
 ``--fresh-scenes 270`` the scenes drawn from seed 10,000 on (``fresh_scenes``), a second sample;
 with ``--symmetry-held-out`` also the symmetry row over the held-out scenes, and with
 ``--symmetry-fresh`` over the fresh ones; with ``--symmetry-colour`` each symmetry row again
-with the colour images given.
+with the colour images given. With ``--timing-only`` only the timed clutter frame, written to
+``bench/results/perception_timing.json`` (the time floors again in a minute or two).
 
 Usage: ``python scripts/bench_perception.py [--repeats 20] [--clutter-scenes 30]
 [--held-out-scenes 180 [--symmetry-held-out]] [--fresh-scenes 270 [--fresh-seed 10000]
-[--symmetry-fresh]] [--symmetry-colour]``
+[--symmetry-fresh]] [--symmetry-colour] | --timing-only``
 """
 
 from __future__ import annotations
@@ -75,7 +76,6 @@ def _iou_ok(scene, result) -> tuple[int, float]:
 
 def _clutter_rows(args, default) -> list[dict]:
     from symjax import configs
-    from symjax.perception import segment
     from symjax.perception.clutter_benchmark import (
         benchmark_scenes,
         fresh_scenes,
@@ -84,7 +84,6 @@ def _clutter_rows(args, default) -> list[dict]:
         score_scenes,
         symmetry_rows,
     )
-    from symjax.perception.synthetic import clutter_scene
 
     preset = configs.load("clutter")
     cfg, sym = preset.segmentation, preset.symmetry
@@ -144,6 +143,22 @@ def _clutter_rows(args, default) -> list[dict]:
                 row |= {"scenes": len(sample)} | symmetry_rows(sample, cfg, False, sym, colour=True)
                 rows.append(row)
                 print(json.dumps(row), flush=True)
+    return rows + _frame_rows(args, scenes, cfg, default)
+
+
+def _clutter_cfg():
+    from symjax import configs
+
+    return configs.load("clutter").segmentation
+
+
+def _frame_rows(args, scenes, cfg, default) -> list[dict]:
+    """The clutter preset's time for one frame at 640 x 480 and 1280 x 720, against the default
+    segmentation timed in the same rounds."""
+    from symjax.perception import segment
+    from symjax.perception.synthetic import clutter_scene
+
+    rows = []
     # The timed frame: the tenth clutter scene (the last one when the benchmark had ten), at
     # both resolutions, so the speed rows stay comparable with earlier runs.
     clutter = [sc for g, sc in scenes if g == "clutter"]
@@ -214,6 +229,10 @@ class Args(PresetArgs):
     symmetry_colour: bool = False
     """Also each symmetry row with the colour images given to the segmentation of the
     separated and of the alone frames (``..._with_colour``; without the true-mask columns)."""
+    timing_only: bool = False
+    """Only the timed clutter frame at 640 x 480 and 1280 x 720 (and its reference), written to
+    ``bench/results/perception_timing.json``: the time floors measured again in a few minutes,
+    without the accuracy and symmetry rows of ``perception.json``."""
 
 
 def main(argv=None) -> int:
@@ -226,6 +245,12 @@ def main(argv=None) -> int:
         from symjax.errors import ConfigError
 
         raise ConfigError("--symmetry-fresh needs fresh scenes: add --fresh-scenes 270")
+    wide = [f for f in ("held_out_scenes", "fresh_scenes", "symmetry_colour") if getattr(args, f)]
+    if args.timing_only and wide:
+        from symjax.errors import ConfigError
+
+        flags = ", ".join("--" + f.replace("_", "-") for f in wide)
+        raise ConfigError(f"--timing-only times the clutter frame alone; drop {flags}")
     if args.fresh_scenes:  # a bad count or seed is told now, not after the timed cases
         from symjax.perception.clutter_benchmark import fresh_scenes
 
@@ -251,7 +276,8 @@ def main(argv=None) -> int:
     compile_s = time.perf_counter() - t
 
     rows = []
-    for i, n in enumerate((3, 4, 6)):
+    name = "perception_timing.json" if args.timing_only else "perception.json"
+    for i, n in enumerate(() if args.timing_only else (3, 4, 6)):
         scene = tabletop_scene(n, seed=10 + i, noise=0.002)
         t = time.perf_counter()
         res = segment(scene.depth, scene.camera, cfg)
@@ -284,12 +310,17 @@ def main(argv=None) -> int:
         rows.append(row)
         print(json.dumps(row), flush=True)
 
-    rows += _clutter_rows(args, cfg)
-    out = Path(__file__).resolve().parents[1] / "bench" / "results" / "perception.json"
+    if args.timing_only:
+        from symjax.perception.clutter_benchmark import benchmark_scenes
+
+        rows += _frame_rows(args, benchmark_scenes(args.clutter_scenes), _clutter_cfg(), cfg)
+    else:
+        rows += _clutter_rows(args, cfg)
+    out = Path(__file__).resolve().parents[1] / "bench" / "results" / name
     atomic_write_json(
         out,
         {
-            "benchmark": "perception",
+            "benchmark": "perception_timing" if args.timing_only else "perception",
             "machine": {
                 "cpu_count": os.cpu_count(),
                 "platform": platform.platform(),

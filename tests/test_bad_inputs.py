@@ -467,6 +467,7 @@ CASES = [
     ("clutter-fresh-count", lambda d: fresh_scenes(-3, 10_000), ConfigError, ["fresh scenes", ">= 0", "-3"]),
     ("clutter-fresh-examined-seed", lambda d: fresh_scenes(5, 100), ConfigError, ["seed > 567", "seed 100"]),
     ("bench-perception-symmetry-held-out", lambda d: _script_main("bench_perception")(["--symmetry-held-out"]), ConfigError, ["--symmetry-held-out", "--held-out-scenes"]),
+    ("bench-perception-timing-only", lambda d: _script_main("bench_perception")(["--timing-only", "--fresh-scenes", "270"]), ConfigError, ["--timing-only", "drop --fresh-scenes"]),
     ("bench-perception-symmetry-fresh", lambda d: _script_main("bench_perception")(["--symmetry-fresh"]), ConfigError, ["--symmetry-fresh", "--fresh-scenes"]),
     ("segment-no-camera", lambda d: perception.segment(VIEW.depth), InvalidInputError, ["camera"]),
     ("segment-config", lambda d: perception.segment(PTS, config={"seed": 1}), ConfigError, ["SegmentationConfig", "dict"]),
