@@ -92,7 +92,7 @@ class SymmetryConfig:
             mirror far outside the object, and their squares outweigh the rest of the view. The
             vote only: the completion's plausibility keeps the square.
         w_outside: Weight of E[delta_1], the squared distance (pixels^2) of mirrored points that
-            fall outside the segmentation mask (Eq. 3, first term).
+            fall outside the segmentation mask (Eq. 3, first term; see ``outside_huber_px``).
         w_inside: Weight of E[delta_2], the depth difference (metres) of mirrored points that fall
             inside the mask in front of the observed surface (Eq. 3, second term). The default
             1000 reads depth in millimetres, as the reference implementation's units do.

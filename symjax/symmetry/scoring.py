@@ -147,11 +147,12 @@ def score_planes(
     """Eq. 3 for many planes of one view.
 
     Mirrored points are looked up in the packed distance-transform/depth image; outside the mask
-    the squared distance (pixels^2) counts, inside the mask the depth by which a point lies in
-    front of the observed surface (metres); both are averaged over their subset of points (or
-    over all points, ``config.normalize="all"``). Points that fall on an occluder's pixels
-    behind its surface are hidden and belong to neither subset (a point in front of it counts
-    inside, with its ``delta_2``).
+    the squared distance (pixels^2) counts (Huber's loss beyond ``config.outside_huber_px``),
+    inside the mask the depth by which a point lies in front of the observed surface (metres);
+    both are averaged over their subset of points (or over all points,
+    ``config.normalize="all"``). Points that fall on an occluder's pixels behind its surface are
+    hidden and belong to neither subset (a point in front of it counts inside, with its
+    ``delta_2``).
 
     Args:
         view: One view.
