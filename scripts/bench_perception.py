@@ -146,12 +146,6 @@ def _clutter_rows(args, default) -> list[dict]:
     return rows + _frame_rows(args, scenes, cfg, default)
 
 
-def _clutter_cfg():
-    from symjax import configs
-
-    return configs.load("clutter").segmentation
-
-
 def _frame_rows(args, scenes, cfg, default) -> list[dict]:
     """The clutter preset's time for one frame at 640 x 480 and 1280 x 720, against the default
     segmentation timed in the same rounds."""
@@ -237,6 +231,13 @@ class Args(PresetArgs):
 
 def main(argv=None) -> int:
     args = parse(Args, sys.argv[1:] if argv is None else argv, "bench_perception.py", __doc__)
+    wide = ("held_out_scenes", "fresh_scenes", "symmetry_held_out", "symmetry_fresh")
+    wide = [f for f in (*wide, "symmetry_colour") if getattr(args, f)]
+    if args.timing_only and wide:
+        from symjax.errors import ConfigError
+
+        flags = ", ".join("--" + f.replace("_", "-") for f in wide)
+        raise ConfigError(f"--timing-only times the clutter frame alone; drop {flags}")
     if args.symmetry_held_out and not args.held_out_scenes:
         from symjax.errors import ConfigError
 
@@ -245,12 +246,6 @@ def main(argv=None) -> int:
         from symjax.errors import ConfigError
 
         raise ConfigError("--symmetry-fresh needs fresh scenes: add --fresh-scenes 270")
-    wide = [f for f in ("held_out_scenes", "fresh_scenes", "symmetry_colour") if getattr(args, f)]
-    if args.timing_only and wide:
-        from symjax.errors import ConfigError
-
-        flags = ", ".join("--" + f.replace("_", "-") for f in wide)
-        raise ConfigError(f"--timing-only times the clutter frame alone; drop {flags}")
     if args.fresh_scenes:  # a bad count or seed is told now, not after the timed cases
         from symjax.perception.clutter_benchmark import fresh_scenes
 
@@ -311,9 +306,11 @@ def main(argv=None) -> int:
         print(json.dumps(row), flush=True)
 
     if args.timing_only:
+        from symjax import configs
         from symjax.perception.clutter_benchmark import benchmark_scenes
 
-        rows += _frame_rows(args, benchmark_scenes(args.clutter_scenes), _clutter_cfg(), cfg)
+        clutter = configs.load("clutter").segmentation
+        rows += _frame_rows(args, benchmark_scenes(args.clutter_scenes), clutter, cfg)
     else:
         rows += _clutter_rows(args, cfg)
     out = Path(__file__).resolve().parents[1] / "bench" / "results" / name
