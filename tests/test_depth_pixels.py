@@ -1,4 +1,5 @@
-"""symjax.perception.depth_pixels: enclosed pixels and filled holes against plain references."""
+"""symjax.perception.depth_pixels: enclosed pixels, filled holes and objects' masks on their boxes
+against plain references."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.ndimage import binary_fill_holes
 
-from symjax.perception.depth_pixels import enclosed, fill_holes
+from symjax.observation import fill_mask
+from symjax.perception.depth_pixels import enclosed, fill_holes, object_mask
 
 
 def _rings(rng: np.random.Generator) -> np.ndarray:
@@ -52,3 +54,19 @@ def test_fill_holes_takes_the_nearest_depth_pass_by_pass(seed, passes):
     want = np.where(np.isfinite(want), want, 0.0)
     got = fill_holes(depth, valid, passes)
     np.testing.assert_array_equal(got, want.astype(np.float32))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), fill=st.sampled_from(["close", "hull", "none"]))
+def test_object_mask_on_its_box_is_the_frames_fill(seed, fill):
+    # Masks that reach the frame's border too: the closing pads there as on the frame.
+    rng = np.random.default_rng(seed)
+    own = _rings(rng)
+    hw = own.shape
+    extra = (rng.random(hw) < rng.uniform(0.0, 0.05)) & ~own
+    ids, more = np.flatnonzero(own), np.flatnonzero(extra)
+    box, measured, mask = object_mask(ids, more, hw, fill)
+    got_measured, got_mask = np.zeros(hw, bool), np.zeros(hw, bool)
+    got_measured[box], got_mask[box] = measured, mask
+    np.testing.assert_array_equal(got_measured, own)
+    np.testing.assert_array_equal(got_mask, fill_mask(own | extra, fill))

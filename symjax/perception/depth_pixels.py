@@ -9,7 +9,15 @@ from symjax.camera import Camera
 from symjax.geometry import pixel_rays
 from symjax.perception.config import SegmentationConfig
 
-__all__ = ["box_shift", "enclosed", "fill_holes", "in_workspace", "pixel_rays_of", "table_hull"]
+__all__ = [
+    "box_shift",
+    "enclosed",
+    "fill_holes",
+    "in_workspace",
+    "object_mask",
+    "pixel_rays_of",
+    "table_hull",
+]
 
 _RAYS_CACHE: dict[tuple, np.ndarray] = {}
 
@@ -73,6 +81,39 @@ def fill_holes(depth: np.ndarray, valid: np.ndarray, passes: int) -> np.ndarray:
 def box_shift(box: tuple[slice, slice], dr: int, dc: int) -> tuple[slice, slice]:
     """A bounding box (row and column slices) moved by ``(dr, dc)`` pixels."""
     return slice(box[0].start + dr, box[0].stop + dr), slice(box[1].start + dc, box[1].stop + dc)
+
+
+#: Pixels around an object's box in :func:`object_mask`: more than the closing's radius (2 px,
+#: :func:`symjax.observation.fill_mask`), so the closing on the box equals the closing on the frame.
+_MASK_PAD = 4
+
+
+def object_mask(ids: np.ndarray, extra: np.ndarray, hw: tuple[int, int], fill: str):
+    """An object's mask on its bounding box, not the frame: at 640 x 480 the frame-sized closing
+    of each of 8 objects cost 6 ms, their boxes' a tenth of that.
+
+    Args:
+        ids: Flat indices (N,) of the object's measured pixels in an (H, W) = ``hw`` frame.
+        extra: Flat indices (M,) of the pixels it claims besides (dropouts), M may be 0.
+        hw: The frame's shape.
+        fill: The mask's fill (:func:`symjax.observation.fill_mask`).
+
+    Returns:
+        ``(box, measured, mask)``: the box (two slices into the frame, the pixels plus a margin),
+        and on it (h, w) bool the measured pixels and the filled mask of both sets.
+    """
+    from symjax.observation import fill_mask
+
+    both = np.concatenate([ids, extra]) if len(extra) else ids
+    rr, cc = np.divmod(both, hw[1])
+    r0, c0 = max(int(rr.min()) - _MASK_PAD, 0), max(int(cc.min()) - _MASK_PAD, 0)
+    r1, c1 = min(int(rr.max()) + 1 + _MASK_PAD, hw[0]), min(int(cc.max()) + 1 + _MASK_PAD, hw[1])
+    rr, cc = rr - r0, cc - c0
+    measured = np.zeros((r1 - r0, c1 - c0), bool)
+    measured[rr[: len(ids)], cc[: len(ids)]] = True
+    grown = measured.copy()
+    grown[rr[len(ids) :], cc[len(ids) :]] = True
+    return (slice(r0, r1), slice(c0, c1)), measured, fill_mask(grown, fill)
 
 
 def enclosed(mask: np.ndarray, free: np.ndarray) -> np.ndarray:

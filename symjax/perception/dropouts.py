@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from symjax._threads import map_in_threads
 from symjax.geometry import tangent_basis
 from symjax.perception.hull import convex_hull_2d
 
@@ -198,9 +197,10 @@ def claim_dropouts(
         grow = _GROW_PX * pixel_angle * dist
         return rr, cc, np.min([_entry(hull, top, o, d, grow=grow) for hull, top in prisms], axis=0)
 
-    # The objects' columns side by side in threads; the nearest entry wins, in object order.
+    # The nearest entry wins, in object order. (Not in threads: an object's entries are short
+    # numpy calls, and two threads passing the GIL back and forth took longer.)
     items = list(points.items())
-    for (k, _), hit in zip(items, map_in_threads(entries, items), strict=True):
+    for (k, _), hit in zip(items, map(entries, items), strict=True):
         if hit is None:
             continue
         rr, cc, s = hit

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from symjax._threads import map_in_threads, serial_blas
+from symjax._threads import serial_blas
 from symjax.camera import Camera
 from symjax.errors import ConfigError, EmptyInputError, InvalidInputError, ShapeError
-from symjax.observation import Observation, fill_mask
+from symjax.observation import Observation
 from symjax.perception.clusters import (
     cloud_clusters,
     grid_outliers,
@@ -31,6 +31,7 @@ from symjax.perception.depth_pixels import (
     enclosed,
     fill_holes,
     in_workspace,
+    object_mask,
     pixel_rays_of,
     table_hull,
 )
@@ -207,28 +208,27 @@ def _segment_depth(
         claimed_ids = (rr + r0) * hw[1] + (cc + c0)
         claimed_by = claimed[rr, cc]
 
-    # Masks of the objects side by side in threads; then, one object after the other, the free
-    # pixels each mask encloses (no longer free for the next).
+    # Each object's mask on its box, not the frame; then, one object after the other, the free
+    # pixels each mask encloses (no longer free for the next). The per-object steps run one after
+    # the other: they are short numpy calls, and two threads passing the GIL back and forth took
+    # 1.06-1.11x their time (10 clutter scenes, 640 x 480 and 1280 x 720).
     def grown_mask(item):
         k, ids = item
-        m = np.zeros(hw, bool)
-        m.reshape(-1)[ids] = True
-        grown = m.copy()
-        if len(claimed_ids):
-            grown.reshape(-1)[claimed_ids[claimed_by == k]] = True
-        return m, fill_mask(grown, cfg.mask_fill)
+        return object_mask(ids, claimed_ids[claimed_by == k], hw, cfg.mask_fill)
 
-    made = []  # (points, mask, measured pixels)
+    made = []  # (points, box, mask and measured pixels on it)
     free = valid & (labels == -1)
-    for (k, _), (m, mask) in zip(found, map_in_threads(grown_mask, found), strict=True):
+    for (k, _), (box, m, mask) in zip(found, map(grown_mask, found), strict=True):
         if cfg.object_holes:
-            hole = enclosed(mask, free)
+            hole = enclosed(mask, free[box])
             if hole.any():
-                labels[hole], m = k, m | hole
-                free &= ~hole
-                points[k] = np.concatenate([points[k], world(np.flatnonzero(hole))])
+                labels[box][hole], m = k, m | hole
+                free[box] &= ~hole
+                rr, cc = np.nonzero(hole)
+                ids = (rr + box[0].start) * hw[1] + (cc + box[1].start)
+                points[k] = np.concatenate([points[k], world(ids)])
         keep[k] = len(made)
-        made.append((points[k], mask | m, m))
+        made.append((points[k], box, mask | m, m))
     labels = np.append(keep, np.int32(-1))[labels]  # -1 indexes the appended -1
     boxes = find_objects(labels + 1, max_label=len(made))
     # Depth of the pieces of surface above the table that no object holds, 0 elsewhere.
@@ -240,8 +240,12 @@ def _segment_depth(
             unclaimed[sl] = piece
 
     def finish(i: int):
-        p, mask, m = made[i]
-        obs = Observation.create(p, camera, table, mask, depth * m)
+        p, box, mask_box, m = made[i]
+        mask = np.zeros(hw, bool)
+        mask[box] = mask_box
+        seen = np.zeros(hw, np.float32)
+        seen[box] = np.where(m, depth[box], np.float32(0.0))
+        obs = Observation.create(p, camera, table, mask, seen)
         info, notes = describe_object(i, obs, labels, depth, table, cfg, boxes[i])
         if info.occluded_by or unclaimed is not None:
             # Neighbours in front hide part of the object: their pixels keep their depth
@@ -249,10 +253,11 @@ def _segment_depth(
             # space (Eq. 3); so do the surfaces no object holds (the sets are disjoint).
             occ = occluder_depth(labels, depth, info.occluded_by, boxes)
             occ = occ if unclaimed is None else occ + unclaimed
-            obs = dataclasses.replace(obs, depth=np.where(mask, obs.depth, occ))
+            occ[box] = np.where(mask_box, seen[box], occ[box])
+            obs = dataclasses.replace(obs, depth=occ)
         return obs, info, notes
 
-    done = map_in_threads(finish, range(len(made)))
+    done = [finish(i) for i in range(len(made))]
     objects = [obs for obs, _, _ in done]
     infos = tuple(info for _, info, _ in done)
     notes = tuple(n for _, _, said in done for n in said) + (() if made else (EMPTY_TABLE,))
