@@ -89,8 +89,8 @@ _MASK_PAD = 4
 
 
 def object_mask(ids: np.ndarray, extra: np.ndarray, hw: tuple[int, int], fill: str):
-    """An object's mask on its bounding box, not the frame: at 640 x 480 the frame-sized closing
-    of each of 8 objects cost 6 ms, their boxes' a tenth of that.
+    """An object's mask on its bounding box, not the frame: at 640 x 480 the frame-sized closings
+    of 8 objects took 5.6 ms a frame, this 0.9 ms.
 
     Args:
         ids: Flat indices (N,) of the object's measured pixels in an (H, W) = ``hw`` frame.
