@@ -31,6 +31,9 @@ MIN_POINTS = 10
 
 MaskFill = Literal["none", "close", "hull"]
 
+#: Radius (pixels) of the closing of a mask filled with ``"close"`` unless told otherwise.
+CLOSE_PX = 2
+
 
 def clean_points(points: ArrayLike, what: str = "point cloud") -> np.ndarray:
     """Validates a cloud and drops non-finite rows.
@@ -145,7 +148,7 @@ def render_points(points: np.ndarray, camera: Camera) -> tuple[np.ndarray, np.nd
     return depth > 0, depth
 
 
-def fill_mask(mask: np.ndarray, fill: MaskFill, close_px: int = 2) -> np.ndarray:
+def fill_mask(mask: np.ndarray, fill: MaskFill, close_px: int = CLOSE_PX) -> np.ndarray:
     """Fills gaps of a sparse projected mask.
 
     ``"hull"`` is the reference code's fill by the convex hull of the projection; ``"close"`` is a
@@ -260,7 +263,7 @@ class Observation:
         camera: Camera,
         table: TablePlane,
         fill: MaskFill = "close",
-        close_px: int = 2,
+        close_px: int = CLOSE_PX,
         limits: SceneLimits | None = None,
     ) -> Observation:
         """Builds an observation whose mask and depth image come from projecting the points.

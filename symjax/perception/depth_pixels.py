@@ -7,6 +7,7 @@ import numpy as np
 
 from symjax.camera import Camera
 from symjax.geometry import pixel_rays
+from symjax.observation import CLOSE_PX, fill_mask
 from symjax.perception.config import SegmentationConfig
 
 __all__ = [
@@ -83,9 +84,9 @@ def box_shift(box: tuple[slice, slice], dr: int, dc: int) -> tuple[slice, slice]
     return slice(box[0].start + dr, box[0].stop + dr), slice(box[1].start + dc, box[1].stop + dc)
 
 
-#: Pixels around an object's box in :func:`object_mask`: more than the closing's radius (2 px,
-#: :func:`symjax.observation.fill_mask`), so the closing on the box equals the closing on the frame.
-_MASK_PAD = 4
+#: Pixels around an object's box in :func:`object_mask`: more than the closing's radius
+#: (:func:`symjax.observation.fill_mask`), so that the closing on the box is the frame's.
+_MASK_PAD = CLOSE_PX + 2
 
 
 def object_mask(ids: np.ndarray, extra: np.ndarray, hw: tuple[int, int], fill: str):
@@ -102,8 +103,6 @@ def object_mask(ids: np.ndarray, extra: np.ndarray, hw: tuple[int, int], fill: s
         ``(box, measured, mask)``: the box (two slices into the frame, the pixels plus a margin),
         and on it (h, w) bool the measured pixels and the filled mask of both sets.
     """
-    from symjax.observation import fill_mask
-
     both = np.concatenate([ids, extra]) if len(extra) else ids
     rr, cc = np.divmod(both, hw[1])
     r0, c0 = max(int(rr.min()) - _MASK_PAD, 0), max(int(cc.min()) - _MASK_PAD, 0)
