@@ -403,6 +403,10 @@ def test_symmetry_rows_with_truth_count_the_same_objects():
         diff = round((row[f"plane_ok_{name}"] - row["plane_ok_alone"]) * n)
         assert diff == row[f"right_only_{name}"] - row[f"right_only_alone_{name}"]
         assert 0.0 <= row[f"mcnemar_p_{name}"] <= 1.0
+    # separated against perfect perception: the difference of their shares, pair by pair
+    diff = round((row["plane_ok_separated"] - row["plane_ok_truth_masks_and_occluders"]) * n)
+    assert diff == row["right_only_separated_vs_perfect"] - row["right_only_perfect"]
+    assert 0.0 <= row["mcnemar_p_separated_vs_perfect"] <= 1.0
     # the box in front shows all of itself, the box hides a fifth of the can behind it
     assert [b[0] for b in row["by_hidden"].values()] == [1, 0, 1, 0]
 

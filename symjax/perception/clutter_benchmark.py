@@ -247,7 +247,8 @@ def symmetry_rows(
 
     With ``truth``, the same objects also as a perfect segmentation would give them
     (:func:`truth_observation`): the true masks with the segmentation's occluder rule, and the
-    true masks with the true occluders, each against the objects alone. ``symmetry`` is the
+    true masks with the true occluders (perfect perception), each against the objects alone,
+    and the separated objects against perfect perception (``..._vs_perfect``). ``symmetry`` is the
     search's :class:`symjax.symmetry.SymmetryConfig` (None = the default). The separated objects
     of a frame are searched together (:func:`symjax.symmetry.search_scene`: with
     ``neighbour_volumes``, against their neighbours' completed volumes, and so are the true
@@ -309,6 +310,13 @@ def symmetry_rows(
         row[f"mcnemar_p{tag}"] = mcnemar_p(b, c)
         if name == "separated":
             row["plane_ok_alone"] = round(float(alone.mean()) if n else 0.0, 3)
+    if truth:
+        # The segmentation against perfect perception, paired: what the masks and the occluder
+        # rule cost, apart from what the neighbours' occlusion costs any segmentation.
+        sep, perfect = (np.asarray(ok[k], bool) for k in ("separated", kinds[-1]))
+        b, c = int((sep & ~perfect).sum()), int((perfect & ~sep).sum())
+        row["right_only_separated_vs_perfect"], row["right_only_perfect"] = b, c
+        row["mcnemar_p_separated_vs_perfect"] = mcnemar_p(b, c)
     row["by_hidden"] = buckets
     row["criterion"] = "within 10 deg and 10 mm of a true mirror plane"
     return row
