@@ -1,5 +1,5 @@
-"""symjax.perception.depth_pixels: enclosed pixels, filled holes and objects' masks on their boxes
-against plain references."""
+"""symjax.perception.depth_pixels: enclosed pixels, filled holes, objects' masks on their boxes and
+the candidates' boxes against plain references."""
 
 from __future__ import annotations
 
@@ -9,8 +9,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.ndimage import binary_fill_holes
 
+from symjax import configs
 from symjax.observation import fill_mask
-from symjax.perception.depth_pixels import enclosed, fill_holes, object_mask
+from symjax.perception.depth_pixels import candidate_boxes, enclosed, fill_holes, object_mask
+from symjax.perception.object_info import UNCLAIMED_PX
 
 
 def _rings(rng: np.random.Generator) -> np.ndarray:
@@ -70,3 +72,38 @@ def test_object_mask_on_its_box_is_the_frames_fill(seed, fill):
     got_measured[box], got_mask[box] = measured, mask
     np.testing.assert_array_equal(got_measured, own)
     np.testing.assert_array_equal(got_mask, fill_mask(own | extra, fill))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_candidate_boxes_hold_every_piece_that_can_be_an_object(seed):
+    # Blobs and specks: the box of all is the candidates' box and a pixel; the pieces' box lies
+    # in it and holds each 8-connected piece of UNCLAIMED_PX or more (the clutter preset's least)
+    # with its margin, except where the box of all or the frame ends first.
+    from scipy.ndimage import label
+
+    rng = np.random.default_rng(seed)
+    cand = _rings(rng) & (rng.random((1, 1)) < 0.9)
+    cand |= rng.random(cand.shape) < rng.uniform(0.0, 0.02)  # the table's specks
+    if not cand.any():
+        cand[0, 0] = True
+    cfg = configs.load("clutter").segmentation
+    pieces, every = candidate_boxes(cand, cfg)
+    H, W = cand.shape
+    rows, cols = np.flatnonzero(cand.any(axis=1)), np.flatnonzero(cand.any(axis=0))
+    assert every == (
+        slice(max(rows[0] - 1, 0), min(rows[-1] + 2, H)),
+        slice(max(cols[0] - 1, 0), min(cols[-1] + 2, W)),
+    )
+    comp, n = label(cand, np.ones((3, 3), bool))
+    big = [k for k in range(1, n + 1) if (comp == k).sum() >= UNCLAIMED_PX]
+    if not big:
+        assert pieces is None
+        return
+    pad = 4 + max(cfg.crease_smooth_px // 2 + cfg.crease_scale_px, cfg.split_bridges_px, 5)
+    r, c = np.nonzero(np.isin(comp, big))
+    for got, lo, hi, outer in ((pieces[0], r.min(), r.max(), every[0]),
+                               (pieces[1], c.min(), c.max(), every[1])):  # fmt: skip
+        assert outer.start <= got.start and got.stop <= outer.stop
+        assert got.start == max(lo - pad, outer.start)
+        assert got.stop == min(hi + 1 + pad, outer.stop)

@@ -12,6 +12,7 @@ from symjax.perception.config import SegmentationConfig
 
 __all__ = [
     "box_shift",
+    "candidate_boxes",
     "enclosed",
     "fill_holes",
     "in_workspace",
@@ -19,6 +20,10 @@ __all__ = [
     "pixel_rays_of",
     "table_hull",
 ]
+
+#: Pixels around a pixel that the colour creases read (a 5 x 5 blur, Canny's 3 x 3 gradient and
+#: its suppression, the 3 x 3 widening).
+_COLOUR_PX = 5
 
 _RAYS_CACHE: dict[tuple, np.ndarray] = {}
 
@@ -77,6 +82,57 @@ def fill_holes(depth: np.ndarray, valid: np.ndarray, passes: int) -> np.ndarray:
         empty = empty[flat[empty] >= big]
     flat[empty] = 0.0
     return filled
+
+
+def candidate_boxes(cand: np.ndarray, cfg: SegmentationConfig):
+    """The boxes of the candidate pixels (H, W) bool, any: of those that can become or touch an
+    object, with a margin for the local steps that read the pixels around them, and of all.
+
+    A noisy table puts specks of a few candidate pixels all over the frame (the timed 640 x 480
+    clutter frame's specks spread its candidates over 434 x 640 pixels, its objects over
+    247 x 227), and every image step on the box scales with its area. An 8-connected piece of
+    fewer pixels than the least an object's seeds, a fragment or an unclaimed surface needs can
+    be none of them, so only the larger ones set the first box. Its margin exceeds the widest
+    neighbourhood a step reads around a pixel (the crease concavity's smoothing and span, the
+    colour image's blur and edges, the bridges' erosion), and the box lies within the box of all:
+    each pixel of those pieces sees what it saw on the box of all candidates.
+
+    Returns:
+        ``(pieces, every)``: ``(rows, cols)`` slices into the frame; ``pieces`` is None where no
+        piece can be an object.
+    """
+    import cv2
+
+    from symjax.perception.object_info import UNCLAIMED_PX
+
+    H, W = cand.shape
+    least = min(
+        cfg.min_cluster_points,
+        cfg.fragment_px if cfg.fragment_px > 0 else cfg.min_cluster_points,
+        UNCLAIMED_PX if cfg.unclaimed_occluders else cfg.min_cluster_points,
+    )
+    _, _, stats, _ = cv2.connectedComponentsWithStats(cand.view(np.uint8), connectivity=8)
+    stats = stats[1:]
+
+    def box(st, pad):
+        x0, y0 = st[:, 0].min(), st[:, 1].min()
+        x1, y1 = (st[:, 0] + st[:, 2]).max(), (st[:, 1] + st[:, 3]).max()
+        return (
+            slice(max(int(y0) - pad, 0), min(int(y1) + pad, H)),
+            slice(max(int(x0) - pad, 0), min(int(x1) + pad, W)),
+        )
+
+    every = box(stats, 1)  # (a pixel for the depth steps)
+    stats = stats[stats[:, cv2.CC_STAT_AREA] >= least]
+    if not len(stats):
+        return None, every
+    reach = max(cfg.crease_smooth_px // 2 + cfg.crease_scale_px, cfg.split_bridges_px, _COLOUR_PX)
+    near = box(stats, 4 + reach)
+    # Within the box of all: its sides, where a piece comes that close, stay where they were.
+    pieces = tuple(
+        slice(max(a.start, b.start), min(a.stop, b.stop)) for a, b in zip(near, every, strict=True)
+    )
+    return pieces, every
 
 
 def box_shift(box: tuple[slice, slice], dr: int, dc: int) -> tuple[slice, slice]:

@@ -28,6 +28,7 @@ from symjax.perception.config import SegmentationConfig
 from symjax.perception.creases import colour_creases, crease_concavity, crease_mask, lab_image
 from symjax.perception.depth_pixels import (
     box_shift,
+    candidate_boxes,
     enclosed,
     fill_holes,
     in_workspace,
@@ -140,12 +141,9 @@ def _segment_depth(
         cand &= table_hull(on_table)
     labels = np.full(hw, -1, np.int32)
     surface = None  # with unclaimed_occluders: the candidates measured (box sl), less strays
-    if cand.any():
-        # Work on the candidates' bounding box (plus a pixel for the depth steps) only.
-        rows, cols = np.flatnonzero(cand.any(axis=1)), np.flatnonzero(cand.any(axis=0))
-        r0, r1 = max(rows[0] - 1, 0), min(rows[-1] + 2, hw[0])
-        c0, c1 = max(cols[0] - 1, 0), min(cols[-1] + 2, hw[1])
-        sl = (slice(r0, r1), slice(c0, c1))
+    # Work on the box of the candidates that can be objects only (not the table's specks).
+    sl, every = candidate_boxes(cand, cfg) if cand.any() else (None, None)
+    if sl is not None:
         if cfg.workspace_min is not None:
             ids = np.ravel_multi_index(np.nonzero(cand), hw)
             cand.reshape(-1)[ids] = in_workspace(world(ids), cfg)
@@ -199,13 +197,14 @@ def _segment_depth(
             found.append((k, ids))
     points = {k: world(ids) for k, ids in found}
     claimed_ids, claimed_by = np.zeros(0, np.int64), np.zeros(0, np.int32)  # pixel, object
-    if cfg.claim_dropouts_px > 0 and found and cand.any():
-        crop_boxes = [None if b is None else box_shift(b, -r0, -c0) for b in boxes]
-        claimed = claim_dropouts(labels[sl], valid[sl], rays[sl], T, points, n,
+    if cfg.claim_dropouts_px > 0 and found:  # (on the box of all candidates: claims reach far)
+        e0, f0 = every[0].start, every[1].start
+        crop_boxes = [None if b is None else box_shift(b, -e0, -f0) for b in boxes]
+        claimed = claim_dropouts(labels[every], valid[every], rays[every], T, points, n,
                                  float(table.offset), cfg.claim_dropouts_px,
                                  crop_boxes)  # fmt: skip
         rr, cc = np.nonzero(claimed >= 0)
-        claimed_ids = (rr + r0) * hw[1] + (cc + c0)
+        claimed_ids = (rr + e0) * hw[1] + (cc + f0)
         claimed_by = claimed[rr, cc]
 
     # Each object's mask on its box, not the frame; then, one object after the other, the free
